@@ -1,0 +1,144 @@
+// The robot description: the URDF read through urdfdom must carry the paper's figures.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "robot_model/robot_model.h"
+
+namespace wj::model {
+namespace {
+
+const std::filesystem::path kModels = WJ_MODELS_DIR;
+
+RobotModel loadModel() {
+  return RobotModel::load(kModels / "wheeljump.urdf", kModels / "actuators.yaml");
+}
+
+TEST(RobotModel, PaperFigures) {
+  const RobotModel m = loadModel();
+  EXPECT_NEAR(m.totalMass(), 22.5, 1e-9);      // paper: about 22.5 kg
+  EXPECT_NEAR(m.wheelRadius(), 0.085, 1e-12);  // paper: 0.085 m
+  EXPECT_EQ(m.joints().size(), 16u);           // 16 actuated, 6 + 16 = 22 DoF
+  EXPECT_EQ(m.links().size(), 17u);
+  for (const Leg leg : kLegs) {
+    const LegGeometry& g = m.legGeometry(leg);
+    EXPECT_NEAR(g.thigh_length, 0.2, 1e-12);  // paper: each link about 0.2 m
+    EXPECT_NEAR(g.shank_length, 0.2, 1e-12);
+    const LinkSpec& wheel = m.links()[m.joint(leg, JointKind::Wheel).child_link];
+    EXPECT_NEAR(wheel.inertia.mass, 1.5, 1e-12);  // paper: wheel module 1.5 kg
+  }
+}
+
+TEST(RobotModel, JointsAndActuatorLimits) {
+  const RobotModel m = loadModel();
+  for (int i = 0; i < kNumJoints; ++i) {
+    const JointSpec& j = m.joints()[i];
+    EXPECT_EQ(jointIndex(j.leg, j.kind), i);
+    EXPECT_EQ(j.name, std::string(toString(j.leg)) + "_" + std::string(toString(j.kind)));
+    EXPECT_DOUBLE_EQ(j.actuator.peak_torque_nm, 42.0) << j.name;       // paper: 42 Nm
+    EXPECT_DOUBLE_EQ(j.actuator.no_load_speed_rad_s, 40.0) << j.name;  // paper: 40 rad/s
+    EXPECT_DOUBLE_EQ(j.actuator.gear_ratio, 9.0) << j.name;            // paper: 9:1
+    if (j.kind == JointKind::Wheel) {
+      EXPECT_TRUE(j.continuous);
+      EXPECT_TRUE(std::isinf(j.lower_rad) && std::isinf(j.upper_rad));
+    } else {
+      EXPECT_FALSE(j.continuous);
+      EXPECT_LT(j.lower_rad, j.upper_rad);
+    }
+  }
+  EXPECT_DOUBLE_EQ(m.joint(Leg::LF, JointKind::HAA).lower_rad, -0.6);
+  EXPECT_DOUBLE_EQ(m.joint(Leg::RH, JointKind::HFE).upper_rad, 2.6);
+  EXPECT_DOUBLE_EQ(m.joint(Leg::LH, JointKind::KFE).upper_rad, -0.5);
+}
+
+TEST(ActuatorEnvelope, CornerAndNoLoad) {
+  const ActuatorEnvelope env{42.0, 20.0, 40.0, 9.0};
+  EXPECT_DOUBLE_EQ(env.torqueLimit(0.0), 42.0);
+  EXPECT_DOUBLE_EQ(env.torqueLimit(-20.0), 42.0);
+  EXPECT_DOUBLE_EQ(env.torqueLimit(30.0), 21.0);  // halfway down the linear segment
+  EXPECT_DOUBLE_EQ(env.torqueLimit(40.0), 0.0);
+  EXPECT_DOUBLE_EQ(env.torqueLimit(55.0), 0.0);
+  EXPECT_DOUBLE_EQ(env.torqueMargin(-25.0, 30.0), -4.0);
+  EXPECT_DOUBLE_EQ(env.saturate(-25.0, 30.0), -21.0);
+  EXPECT_DOUBLE_EQ(env.saturate(10.0, 30.0), 10.0);
+  EXPECT_DOUBLE_EQ(env.speedMargin(-35.0), 5.0);
+  EXPECT_THROW((ActuatorEnvelope{42.0, 45.0, 40.0, 9.0}.validate("x")), std::invalid_argument);
+  EXPECT_THROW((ActuatorEnvelope{0.0, 20.0, 40.0, 9.0}.validate("x")), std::invalid_argument);
+}
+
+TEST(RobotModel, CompositeInertiaClosedForm) {
+  const RobotModel m = loadModel();
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(kNumJoints);
+  const Inertia I = m.calcCompositeInertia(q);
+  EXPECT_NEAR(I.mass, 22.5, 1e-12);
+  // Symmetric robot, legs straight down: CoM on the x-z mid plane and centred in x.
+  EXPECT_NEAR(I.com.x(), 0.0, 1e-12);
+  EXPECT_NEAR(I.com.y(), 0.0, 1e-12);
+  // z of the CoM by hand: per leg hip 0, thigh 0.6*-0.08, shank 0.4*-0.3, wheel 1.5*-0.4.
+  EXPECT_NEAR(I.com.z(), 4.0 * (0.6 * -0.08 + 0.4 * -0.3 + 1.5 * -0.4) / 22.5, 1e-12);
+  EXPECT_TRUE(I.inertia_com.isApprox(I.inertia_com.transpose(), 1e-12));
+  EXPECT_GT(I.inertia_com(1, 1), m.base().inertia.inertia_com(1, 1));  // legs add pitch inertia
+  // Rotating a wheel does not move the CoM (wheel CoM on its axle).
+  Eigen::VectorXd q2 = q;
+  q2[jointIndex(Leg::LF, JointKind::Wheel)] = 1.3;
+  EXPECT_TRUE(m.calcCompositeInertia(q2).com.isApprox(I.com, 1e-12));
+}
+
+TEST(RobotModel, ForwardKinematicsOfTheWheel) {
+  const RobotModel m = loadModel();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(kNumJoints);
+  const double q1 = 0.8, q2 = -1.6;
+  q[jointIndex(Leg::LF, JointKind::HFE)] = q1;
+  q[jointIndex(Leg::LF, JointKind::KFE)] = q2;
+  const auto X = m.calcLinkPoses(q);
+  const int wheel_link = m.joint(Leg::LF, JointKind::Wheel).child_link;
+  const LegGeometry& g = m.legGeometry(Leg::LF);
+  // Rotation about +y by q maps (0,0,-l) to (-l sin q, 0, -l cos q).
+  const Eigen::Vector3d expected = g.p_BH + g.p_HT + Eigen::Vector3d(0, g.wheel_lateral_offset, 0) +
+                                   Eigen::Vector3d(-0.2 * std::sin(q1) - 0.2 * std::sin(q1 + q2), 0,
+                                                   -0.2 * std::cos(q1) - 0.2 * std::cos(q1 + q2));
+  EXPECT_TRUE(X[wheel_link].translation().isApprox(expected, 1e-12))
+      << X[wheel_link].translation().transpose() << " vs " << expected.transpose();
+}
+
+TEST(RobotModel, ContentHashIsStable) {
+  EXPECT_EQ(loadModel().contentHash(), loadModel().contentHash());
+  EXPECT_NE(loadModel().contentHash(), 0u);
+}
+
+TEST(RobotModel, BadInputGivesClearErrors) {
+  const auto dir = std::filesystem::temp_directory_path() / "wj_test_robot_model";
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream(dir / "bad.yaml") << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
+                                       "    gear_ratio: 9\n    corner_speed_rad_s: 20\n"
+                                       "    cornr_speed: 3\n";
+  }
+  try {
+    (void)RobotModel::load(kModels / "wheeljump.urdf", dir / "bad.yaml");
+    FAIL() << "unknown key accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown key 'cornr_speed'"), std::string::npos)
+        << e.what();
+  }
+  {
+    std::ofstream(dir / "missing.yaml")
+        << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
+           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n";
+  }
+  try {
+    (void)RobotModel::load(kModels / "wheeljump.urdf", dir / "missing.yaml");
+    FAIL() << "missing wheel actuator accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("WHEEL has no actuator type"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW((void)RobotModel::load(dir / "nope.urdf", kModels / "actuators.yaml"),
+               std::runtime_error);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace wj::model
