@@ -30,7 +30,7 @@ struct PlanarState {
 
 /// The state of the jump at one instant.
 struct JumpEvent {
-  double t = 0.0;       ///< from the start of take-off [s]
+  double t = 0.0;  ///< from the start of take-off [s]
   PlanarState state;
   double base_z = 0.0;  ///< height of the base frame origin [m]
 };
@@ -65,7 +65,7 @@ struct ForcePhase {
   double t_start = 0.0;  ///< [s]
   double t_end = 0.0;    ///< [s]
   PairForce hind;
-  PairForce front;       ///< zero once the front pair has lifted
+  PairForce front;  ///< zero once the front pair has lifted
 };
 
 /// A complete jump plan, sampled densely for execution.
