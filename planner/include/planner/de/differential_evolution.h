@@ -34,11 +34,13 @@ class Problem {
   virtual ~Problem() = default;
   /// Number of decision variables.
   virtual int dimension() const = 0;
-  /// Box bounds; lower(i) <= upper(i); equal bounds fix a variable.
+  /// Lower box bounds; lower(i) <= upper(i); equal bounds fix a variable.
   virtual Eigen::VectorXd lowerBounds() const = 0;
+  /// Upper box bounds, same size as lowerBounds().
   virtual Eigen::VectorXd upperBounds() const = 0;
   /// Whether evaluate() may run concurrently on distinct workspaces (pagmo's thread safety
-  /// declaration). The solver refuses to parallelise a problem that says no.
+  /// declaration). The solver refuses to parallelise a problem that says no: it then evaluates
+  /// the population serially on one workspace, whatever Settings::threads says.
   virtual bool isThreadSafe() const { return true; }
   /// A fresh workspace for one worker.
   virtual std::unique_ptr<Workspace> createWorkspace() const {
@@ -76,37 +78,46 @@ enum class StopReason {
   MaxGenerations,
   MaxEvaluations,
   TimeBudget,
-  Tolerance,     ///< the population's cost spread fell below the tolerance
-  Stagnation,    ///< the best cost did not improve for stagnation_generations
-  TargetReached, ///< a feasible candidate reached target_cost
+  Tolerance,      ///< the population's cost spread fell below the tolerance
+  Stagnation,     ///< the best cost did not improve for stagnation_generations
+  TargetReached,  ///< a feasible candidate reached target_cost
   Cancelled,
 };
+/// Name of a stop reason, e.g. "MaxEvaluations".
 std::string_view toString(StopReason reason);
+/// Name of a strategy, e.g. "CurrentToPBest1Bin".
 std::string_view toString(Strategy strategy);
+/// Name of an adaptation scheme, e.g. "SHADE".
+std::string_view toString(Adaptation adaptation);
+/// Name of an initialization, e.g. "LatinHypercube".
+std::string_view toString(Initialization initialization);
 
 struct Settings {
-  int population_size = 40;                      ///< NP >= 5 (>= 7 for Rand2Bin)
+  int population_size = 40;  ///< NP >= 5 (>= 7 for Rand2Bin)
   Strategy strategy = Strategy::CurrentToPBest1Bin;
   Adaptation adaptation = Adaptation::JDE;
   Initialization initialization = Initialization::LatinHypercube;
-  double F = 0.5;                                ///< scale factor, fixed or initial, in (0, 2]
-  double CR = 0.9;                               ///< crossover rate, fixed or initial, in [0, 1]
-  double p_best = 0.1;                           ///< CurrentToPBest1Bin: top fraction, (0, 1]
-  int max_generations = 1000;                    ///< >= 1
-  std::int64_t max_evaluations = 1'000'000;      ///< >= population_size
-  double time_budget_s = 0.0;                    ///< wall-time limit; 0 = none
-  double tolerance = 0.0;                        ///< stop when max - min cost < tolerance; 0 = off
-  int stagnation_generations = 0;                ///< 0 = off
+  double F = 0.5;                            ///< scale factor, fixed or initial, in (0, 2]
+  double CR = 0.9;                           ///< crossover rate, fixed or initial, in [0, 1]
+  double p_best = 0.1;                       ///< CurrentToPBest1Bin: top fraction, (0, 1]
+  int max_generations = 1000;                ///< >= 1
+  std::int64_t max_evaluations = 1'000'000;  ///< >= population_size
+  double time_budget_s = 0.0;                ///< wall-time limit; 0 = none
+  double tolerance = 0.0;                    ///< stop when max - min cost < tolerance; 0 = off
+  int stagnation_generations = 0;            ///< 0 = off
   double target_cost = -std::numeric_limits<double>::infinity();  ///< stop at a feasible one <=
-  int threads = 1;                               ///< OpenMP threads for evaluation, >= 1
-  std::uint64_t seed = 1;                        ///< seed of the only random source
-  bool keep_log = true;                          ///< record one GenerationLog per generation
+  int threads = 1;         ///< OpenMP threads for evaluation, >= 1
+  std::uint64_t seed = 1;  ///< seed of the only random source
+  bool keep_log = true;    ///< record one GenerationLog per generation
+  /// SHADE success-history length H >= 0; 0 = population_size (Tanabe and Fukunaga 2013: H = NP).
+  int shade_memory_size = 0;
 
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
 };
 
-/// One generation of the log.
+/// One generation of the log. Generation 0 is the initial population; mean_F and mean_CR are the
+/// means over the trial vectors built in that generation (the initial values for generation 0).
 struct GenerationLog {
   int generation = 0;
   std::int64_t evaluations = 0;
@@ -122,10 +133,11 @@ struct Result {
   Eigen::VectorXd best_x;
   Fitness best;
   StopReason stop_reason = StopReason::MaxGenerations;
-  std::int64_t evaluations = 0;
-  int generations = 0;
+  std::int64_t evaluations = 0;  ///< all evaluations, the initial population's included
+  int generations = 0;           ///< generations after the initial population (log has one more)
   double elapsed_s = 0.0;
-  /// Evaluations and seconds until the first feasible candidate; -1 if none was found.
+  /// Evaluations and seconds until the first feasible candidate; -1 if none was found. The count
+  /// is exact (batch order); the time is taken when that candidate's batch finished.
   std::int64_t first_feasible_evaluations = -1;
   double first_feasible_s = -1.0;
   std::vector<GenerationLog> log;
@@ -143,7 +155,8 @@ class Solver {
   /// Minimises `problem`. `warm_start` (dimension x k, k >= 0) seeds the first k individuals,
   /// clipped into the bounds; the rest is drawn by the configured initialization. `cancel`, if
   /// given, is polled once per generation. Throws std::invalid_argument for inconsistent
-  /// bounds (lower > upper, non-finite) or a warm start of the wrong dimension.
+  /// bounds (lower > upper, non-finite) or a warm start of the wrong dimension or with a non-finite
+  /// entry. If evaluate() throws anyway, the exception is rethrown once the batch has finished.
   Result solve(const Problem& problem, const Eigen::MatrixXd& warm_start = Eigen::MatrixXd(),
                const std::atomic<bool>* cancel = nullptr) const;
 
