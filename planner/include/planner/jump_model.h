@@ -1,0 +1,137 @@
+#pragma once
+/// @file The planar single-rigid-body jump model (paper, Sec. III) made exact: from a decision
+/// vector to force polynomials (a linear solve), the CoM/pitch trajectory in closed form, the
+/// sampled kinodynamic constraints, the prioritized penalty cost and the dense plan.
+///
+/// The model is immutable once built and evaluate() is allocation-free and const, so one
+/// JumpModel is shared by all DE threads (Pinocchio's model/data split; the per-thread data is
+/// the Evaluation the caller owns). The mathematics is written down in docs/planner.md.
+
+#include <Eigen/Core>
+#include <array>
+#include <limits>
+
+#include "planner/jump_plan.h"
+#include "planner/jump_task.h"
+#include "planner/leg_kinematics.h"
+#include "planner/planner_settings.h"
+#include "robot_model/robot_model.h"
+
+namespace wj::planner {
+
+/// Entries of the search vector u (docs/planner.md, "Decision variables"). u is a
+/// reparametrisation of the paper's D = [s(t1/2), s(t2), s(t3), t1, t2, t3] in which the box
+/// bounds keep t1 < t2 < t3 and t3 is the touchdown by construction.
+enum DecisionIndex : int {
+  kMidDx = 0,          ///< x(t1/2) - v0 t1/2 [m]            (two-step only)
+  kMidDz = 1,          ///< z(t1/2) - z0 [m]                 (two-step only)
+  kMidDpitch = 2,      ///< pitch(t1/2) - pitch0 [rad]       (two-step only)
+  kTakeoffDx = 3,      ///< x(t2) - v0 t2 [m]
+  kTakeoffDz = 4,      ///< z(t2) - z0 [m]
+  kTakeoffDpitch = 5,  ///< pitch(t2) - pitch0 [rad]
+  kTakeoffDvx = 6,     ///< vx(t2) - v0 [m/s]
+  kTakeoffVz = 7,      ///< vz(t2) [m/s]
+  kTakeoffRate = 8,    ///< pitch rate at t2 [rad/s]
+  kT1 = 9,             ///< t1 [s]
+  kT2MinusT1 = 10,     ///< t2 - t1 [s]                      (two-step only; 0 otherwise)
+  kNumDecision = 11,
+};
+
+/// Worst margin of one constraint class over a trajectory.
+struct ClassMargin {
+  double worst = std::numeric_limits<double>::infinity();  ///< smallest margin (unit: unitOf)
+  double t = 0.0;                                          ///< when [s]
+  int location = -1;  ///< joint index (0..15), or -1 hind pair, -2 front pair, -3 body
+};
+
+/// Which joint-kind maxima are tracked: HAA, HFE, KFE, WHEEL.
+inline constexpr int kNumJointKinds = 4;
+
+/// Everything evaluate() computes about one candidate. Owned by the caller (one per thread).
+struct Evaluation {
+  bool valid = false;  ///< the linear solves succeeded and the flight reaches the ground
+  double cost = std::numeric_limits<double>::infinity();
+  double penalty = 0.0;      ///< prioritized constraint penalty (paper Eq. 10)
+  double target_cost = 0.0;  ///< sum of squared target errors over their tolerances
+  double energy_j = 0.0;     ///< take-off mechanical energy, integral of sum |tau qd| [J]
+  std::array<ClassMargin, kNumConstraintClasses> margins{};
+  double err_dx = 0.0, err_height = 0.0, err_pitch = 0.0, err_landing_pitch = 0.0;
+  bool constraints_ok = false;  ///< every margin >= 0
+  bool target_ok = false;       ///< every target error within its tolerance
+  bool feasible = false;        ///< constraints_ok && target_ok
+  JumpOutcome predicted;
+  std::array<double, kNumJointKinds> max_abs_torque_nm{};  ///< over the take-off
+  std::array<double, kNumJointKinds> max_abs_speed_rad_s{};
+};
+
+/// Immutable jump model for one (robot, settings, task, initial state).
+class JumpModel {
+ public:
+  /// Validates the task and the initial state (std::invalid_argument naming the field).
+  JumpModel(const model::RobotModel& robot, const PlannerSettings& settings, const JumpTask& task,
+            const InitialState& initial);
+
+  int dimension() const { return kNumDecision; }
+  /// Search box of u; fixed entries (lower == upper) for a simultaneous take-off.
+  const Eigen::VectorXd& lowerBounds() const { return lower_; }
+  const Eigen::VectorXd& upperBounds() const { return upper_; }
+
+  /// Evaluates candidate u into `ev`. Allocation-free; safe to call concurrently.
+  void evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation& ev) const;
+
+  /// Number of individual constraint samples (fixed for this model), for the polish.
+  int numConstraintSamples() const { return num_constraint_samples_; }
+  /// Every sampled margin divided by its class scale (>= 0 when satisfied), and the target
+  /// residuals (dx, height, pitch errors, landing-pitch excess). Returns false if u is invalid.
+  bool evaluateConstraints(const Eigen::Ref<const Eigen::VectorXd>& u,
+                           Eigen::Ref<Eigen::VectorXd> g,
+                           Eigen::Ref<Eigen::Vector4d> target_residual, double* energy_j) const;
+
+  /// The paper's decision vector D = [s(t1/2), s(t2), s(t3), t1, t2, t3] for candidate u.
+  Eigen::VectorXd decisionVector(const Eigen::Ref<const Eigen::VectorXd>& u) const;
+  /// The dense plan for candidate u (throws std::runtime_error if u is invalid).
+  JumpPlan buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const;
+
+  /// CoM state at t = 0 (x = 0).
+  const PlanarState& initialState() const { return initial_; }
+  /// CoM height at touchdown in the landing posture [m].
+  double landingHeight() const { return z_land_; }
+  double mass() const { return mass_; }
+  double pitchInertia() const { return inertia_; }
+  const JumpTask& task() const { return task_; }
+  const PlannerSettings& settings() const { return settings_; }
+  /// Normalisation scale of a class's margins in the penalty (sigma_n = violation / scale).
+  static double classScale(ConstraintClass c);
+  /// Priority n of a class in the penalty W_n (10^(n+3) + 10^n sigma_n); 10 is the highest.
+  static int classPriority(ConstraintClass c);
+
+  /// CoM height of the posture `q` standing on flat ground at pitch 0 [m].
+  static double standingComHeight(const model::RobotModel& robot, const Eigen::VectorXd& q);
+
+ private:
+  friend struct JumpModelAccess;
+  struct Geometry {
+    Eigen::Vector2d hip_rel_com;  ///< HFE axis relative to the CoM, body x-z [m]
+    double haa_lever = 0.0;       ///< lateral offset HAA axis -> wheel plane, left leg [m]
+  };
+
+  model::RobotModel robot_;
+  PlannerSettings settings_;
+  JumpTask task_;
+  InitialState init_input_;
+  PlanarState initial_;
+  PlanarLeg leg_;
+  Geometry hind_, front_;
+  double mass_ = 0.0, inertia_ = 0.0, wheel_radius_ = 0.0;
+  double d_hind_ = 0.0, d_front_ = 0.0;  ///< wheel axle x offsets from the CoM at t = 0 [m]
+  double z_land_ = 0.0;
+  Eigen::Vector2d base_rel_com_ = Eigen::Vector2d::Zero();  ///< base origin - CoM, body x-z
+  Eigen::Vector2d box_half_ = Eigen::Vector2d::Zero();      ///< half box size x, z
+  Eigen::Vector2d q_landing_ = Eigen::Vector2d::Zero();     ///< (HFE, KFE) landing posture
+  model::ActuatorEnvelope env_haa_, env_hfe_, env_kfe_, env_wheel_;
+  std::array<double, 2> lim_hfe_{}, lim_kfe_{};
+  Eigen::VectorXd lower_, upper_;
+  int num_constraint_samples_ = 0;
+};
+
+}  // namespace wj::planner

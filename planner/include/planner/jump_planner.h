@@ -1,0 +1,92 @@
+#pragma once
+/// @file The jump planner: Differential Evolution over the planar jump model, then an Ipopt
+/// polish with hard constraints and the target as an equality.
+
+#include <Eigen/Core>
+#include <atomic>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "planner/de/differential_evolution.h"
+#include "planner/jump_model.h"
+#include "planner/jump_plan.h"
+#include "planner/jump_task.h"
+#include "planner/planner_settings.h"
+#include "robot_model/robot_model.h"
+
+namespace wj::planner {
+
+/// Per-request overrides of the settings.
+struct PlanOptions {
+  std::optional<std::uint64_t> seed;            ///< DE seed
+  std::optional<std::int64_t> max_evaluations;  ///< DE evaluation budget
+  std::optional<double> time_budget_s;          ///< DE wall-time budget
+  std::optional<int> threads;                   ///< DE evaluation threads
+  std::optional<bool> polish;                   ///< run the Ipopt polish
+  /// Warm-start candidates in the search space u (kNumDecision x k), e.g. from the cache.
+  Eigen::MatrixXd warm_start;
+  /// How many distinct candidates to return for verification (best first), >= 1.
+  int num_candidates = 1;
+  const std::atomic<bool>* cancel = nullptr;  ///< polled between DE generations
+};
+
+/// Outcome of the polish.
+enum class PolishOutcome {
+  NotRun,    ///< disabled, or nothing to polish
+  Improved,  ///< accepted: lower cost than the DE's best
+  Rejected,  ///< Ipopt ended, but its point was not better; the DE's best is kept
+  Failed,    ///< Ipopt reported an error; the DE's best is kept
+};
+const char* toString(PolishOutcome o);
+
+/// A solved candidate: its search vector, evaluation and plan.
+struct Candidate {
+  Eigen::VectorXd u;
+  Evaluation evaluation;
+};
+
+struct PlannerResult {
+  JumpPlan plan;                      ///< dense plan of the best candidate
+  Evaluation evaluation;              ///< evaluation of the best candidate (after the polish)
+  Eigen::VectorXd u;                  ///< its search vector
+  std::vector<Candidate> candidates;  ///< best distinct candidates, best first (incl. the best)
+  de::Result de;                      ///< the DE's result and per-generation log
+  PolishOutcome polish = PolishOutcome::NotRun;
+  int polish_iterations = 0;
+  double de_cost = 0.0;     ///< best cost after the DE
+  double final_cost = 0.0;  ///< after the polish (<= de_cost)
+  double de_ms = 0.0, polish_ms = 0.0, total_ms = 0.0;
+  /// Violated classes (most important first); when feasible, empty. If the constraints hold
+  /// but the target is missed, the classes with the smallest relative margin (the ones that
+  /// bind) are listed instead.
+  std::vector<ConstraintClass> binding;
+  std::string summary;  ///< one sentence
+};
+
+/// Plans jumps for one robot with one set of settings. Immutable; plan() is const and
+/// thread-safe (each call builds its own model and workspaces).
+class JumpPlanner {
+ public:
+  JumpPlanner(model::RobotModel robot, PlannerSettings settings);
+
+  /// Plans `task` from `initial`. Throws std::invalid_argument (naming the field) for bad input.
+  PlannerResult plan(const JumpTask& task, const InitialState& initial,
+                     const PlanOptions& options = {}) const;
+
+  const model::RobotModel& robot() const { return robot_; }
+  const PlannerSettings& settings() const { return settings_; }
+  /// The take-off posture of the presets (all legs at the settings' stand angles).
+  Eigen::Matrix<double, model::kNumJoints, 1> standPosture() const;
+
+ private:
+  model::RobotModel robot_;
+  PlannerSettings settings_;
+};
+
+/// Ipopt polish of candidate u0 on `model`: minimises the take-off energy subject to every
+/// sampled constraint (>= 0) and the target errors (= 0). Returns the polished point in `u`.
+PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
+                              int* iterations);
+
+}  // namespace wj::planner

@@ -1,0 +1,91 @@
+#pragma once
+/// @file Settings of the jump planner. Every field has a default; a YAML file overrides them and
+/// fails on an unknown key (no silent fallback on a misspelling).
+
+#include <array>
+#include <filesystem>
+#include <string>
+
+#include "planner/de/differential_evolution.h"
+
+namespace wj::planner {
+
+/// Kinodynamic constraint classes, in the order of the proto's ConstraintClass (1-based there).
+enum class ConstraintClass : int {
+  NormalForce = 0,        ///< f_z per wheel >= min_normal_force_n
+  FrictionCone = 1,       ///< |f_x| <= mu f_z
+  JointPosition = 2,      ///< URDF limits and leg reach
+  JointSpeed = 3,         ///< |qd| <= no-load speed (HAA, HFE, KFE)
+  JointTorque = 4,        ///< |tau| <= peak torque (HAA, HFE, KFE)
+  ActuatorEnvelope = 5,   ///< |tau| <= torque-speed envelope at qd (HAA, HFE, KFE)
+  BodyHeight = 6,         ///< lowest point of the body above min_body_clearance_m
+  ObstacleClearance = 7,  ///< body and wheels clear of the obstacle
+  WheelTraction = 8,      ///< |f_x| r / 2 within the wheel's envelope at its speed
+  WheelSpeed = 9,         ///< wheel spin within the wheel's no-load speed
+};
+inline constexpr int kNumConstraintClasses = 10;
+/// Snake-case name, e.g. "actuator_envelope".
+const char* toString(ConstraintClass c);
+/// Unit of the margins of a class, e.g. "Nm".
+const char* unitOf(ConstraintClass c);
+
+struct PlannerSettings {
+  // --- physics of the planar model
+  double gravity = 9.81;               ///< [m/s^2]
+  double friction_mu = 0.7;            ///< Coulomb friction coefficient wheel-ground
+  double min_normal_force_n = 5.0;     ///< per wheel while in contact [N]
+  double min_body_clearance_m = 0.04;  ///< lowest body point above the ground [m]
+  double obstacle_margin_m = 0.02;     ///< required clearance to the obstacle [m]
+
+  // --- postures (sagittal angles of every leg; HAA held at 0)
+  double stand_hfe_rad = 1.0;  ///< take-off start posture used by the presets
+  double stand_kfe_rad = -2.0;
+  double landing_hfe_rad = 0.8;  ///< posture the legs take in flight and at landing
+  double landing_kfe_rad = -1.6;
+  double flight_blend_fraction = 0.6;  ///< fraction of the flight used to reach the landing posture
+
+  // --- discretisation
+  int samples_phase1 = 24;     ///< constraint samples on [0, t1]
+  int samples_phase2 = 16;     ///< constraint samples on [t1, t2]
+  int samples_flight = 24;     ///< obstacle/body samples on [t2, t3]
+  double output_dt_s = 0.001;  ///< sample period of the returned references (<= 0.002)
+
+  // --- search box of the decision variables (relative to the initial state where noted)
+  std::array<double, 2> t1_s = {0.08, 0.6};            ///< four-wheel push duration
+  std::array<double, 2> t2_minus_t1_s = {0.04, 0.35};  ///< hind-only push duration (two-step)
+  std::array<double, 2> mid_dx_m = {-0.15, 0.15};      ///< x(t1/2) - v0 t1/2
+  std::array<double, 2> mid_dz_m = {-0.12, 0.15};      ///< z(t1/2) - z0
+  std::array<double, 2> mid_dpitch_rad = {-1.0, 1.0};
+  std::array<double, 2> takeoff_dx_m = {-0.3, 0.4};  ///< x(t2) - v0 t2
+  std::array<double, 2> takeoff_dz_m = {-0.1, 0.3};  ///< z(t2) - z0
+  std::array<double, 2> takeoff_dpitch_rad = {-1.5, 1.5};
+  std::array<double, 2> takeoff_dvx_m_s = {-2.5, 2.5};  ///< vx(t2) - v0
+  std::array<double, 2> takeoff_vz_m_s = {0.2, 4.5};
+  std::array<double, 2> takeoff_pitch_rate_rad_s = {-6.0, 14.0};
+
+  // --- cost (paper Eq. 10): sum over violated classes W_n (10^(n+3) + 10^n sigma_n), plus the
+  // target error and the energy.
+  std::array<double, kNumConstraintClasses> class_weight = {1, 1, 1, 1, 1, 1, 1, 1, 1, 1};
+  double energy_weight = 1e-3;   ///< per joule of |tau qd| over the take-off
+  double tolerance_dx_m = 0.02;  ///< target met when every error is within its tolerance
+  double tolerance_height_m = 0.01;
+  double tolerance_pitch_rad = 0.05;
+  double landing_pitch_tolerance_rad = 0.15;  ///< |pitch at touchdown - upright| for apex targets
+
+  // --- solver
+  de::Settings de;     ///< Differential Evolution
+  bool polish = true;  ///< run the Ipopt polish on the DE's best candidate
+  int polish_max_iterations = 60;
+  double polish_tolerance = 1e-6;
+
+  PlannerSettings();
+  /// Throws std::invalid_argument naming the field and its allowed range.
+  void validate() const;
+  /// Reads `path`, starting from the defaults. Throws std::runtime_error on an unknown key, a
+  /// wrong type or an invalid value, naming the key.
+  static PlannerSettings fromYaml(const std::filesystem::path& path);
+  /// The same, from YAML text (for tests and the service's configuration).
+  static PlannerSettings fromYamlString(const std::string& text);
+};
+
+}  // namespace wj::planner

@@ -1,0 +1,219 @@
+// Ipopt polish of a DE candidate (Ipopt 3.11 from Debian: headers under coin/, MUMPS).
+#include <coin/IpIpoptApplication.hpp>
+#include <coin/IpTNLP.hpp>
+#include <mutex>
+#include <vector>
+
+#include "planner/jump_planner.h"
+
+namespace wj::planner {
+
+namespace {
+
+// MUMPS' sequential build shares Fortran state between instances: one solve at a time.
+std::mutex& ipoptMutex() {
+  static std::mutex m;
+  return m;
+}
+
+// min energy_weight * energy(u)  s.t.  sampled margins >= 0, target errors = 0,
+// |landing pitch| <= tolerance (apex targets). Derivatives by forward differences; the
+// Hessian by L-BFGS. Only the constraint samples that are near-active at the DE's point are
+// passed to Ipopt; the caller re-checks the full set before accepting the result.
+class PolishNlp final : public Ipopt::TNLP {
+ public:
+  PolishNlp(const JumpModel& model, const Eigen::VectorXd& u0) : model_(model), u_full_(u0) {
+    const auto& lo = model.lowerBounds();
+    const auto& hi = model.upperBounds();
+    for (int i = 0; i < model.dimension(); ++i)
+      if (hi[i] > lo[i]) free_.push_back(i);
+    Eigen::VectorXd g(model.numConstraintSamples());
+    Eigen::Vector4d e;
+    if (model.evaluateConstraints(u0, g, e, nullptr)) {
+      for (int i = 0; i < g.size(); ++i)
+        if (g[i] < 3.0) active_.push_back(i);
+    }
+    apex_ = model.task().target.event == TargetEvent::Apex;
+    residuals_ = apex_ ? std::vector<int>{0, 1, 2} : std::vector<int>{0, 2};
+    m_ = static_cast<int>(active_.size() + residuals_.size()) + (apex_ ? 1 : 0);
+    g_full_.resize(model.numConstraintSamples());
+    best_u_ = u0;
+  }
+
+  const Eigen::VectorXd& solution() const { return best_u_; }
+  int iterations() const { return iterations_; }
+
+  bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac_g,
+                    Ipopt::Index& nnz_h_lag, IndexStyleEnum& index_style) override {
+    n = static_cast<Ipopt::Index>(free_.size());
+    m = m_;
+    nnz_jac_g = n * m;
+    nnz_h_lag = 0;
+    index_style = C_STYLE;
+    return true;
+  }
+
+  bool get_bounds_info(Ipopt::Index n, Ipopt::Number* x_l, Ipopt::Number* x_u, Ipopt::Index m,
+                       Ipopt::Number* g_l, Ipopt::Number* g_u) override {
+    for (Ipopt::Index i = 0; i < n; ++i) {
+      x_l[i] = model_.lowerBounds()[free_[i]];
+      x_u[i] = model_.upperBounds()[free_[i]];
+    }
+    Ipopt::Index k = 0;
+    for (std::size_t i = 0; i < active_.size(); ++i, ++k) {
+      g_l[k] = 0.0;
+      g_u[k] = 2e19;
+    }
+    for (std::size_t i = 0; i < residuals_.size(); ++i, ++k) g_l[k] = g_u[k] = 0.0;
+    if (apex_) {
+      const double tol = model_.settings().landing_pitch_tolerance_rad;
+      g_l[k] = -tol;
+      g_u[k] = tol;
+      ++k;
+    }
+    return k == m;
+  }
+
+  bool get_starting_point(Ipopt::Index n, bool init_x, Ipopt::Number* x, bool, Ipopt::Number*,
+                          Ipopt::Number*, Ipopt::Index, bool, Ipopt::Number*) override {
+    if (init_x)
+      for (Ipopt::Index i = 0; i < n; ++i) x[i] = u_full_[free_[i]];
+    return true;
+  }
+
+  bool eval_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Number& f) override {
+    if (!update(n, x, new_x)) return false;
+    f = f0_;
+    return true;
+  }
+  bool eval_grad_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
+                   Ipopt::Number* grad) override {
+    if (!update(n, x, new_x)) return false;
+    for (Ipopt::Index i = 0; i < n; ++i) grad[i] = grad_[i];
+    return true;
+  }
+  bool eval_g(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Index m,
+              Ipopt::Number* g) override {
+    if (!update(n, x, new_x)) return false;
+    for (Ipopt::Index k = 0; k < m; ++k) g[k] = c0_[k];
+    return true;
+  }
+  bool eval_jac_g(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Index m, Ipopt::Index,
+                  Ipopt::Index* iRow, Ipopt::Index* jCol, Ipopt::Number* values) override {
+    if (!values) {
+      Ipopt::Index idx = 0;
+      for (Ipopt::Index k = 0; k < m; ++k)
+        for (Ipopt::Index i = 0; i < n; ++i, ++idx) {
+          iRow[idx] = k;
+          jCol[idx] = i;
+        }
+      return true;
+    }
+    if (!update(n, x, new_x)) return false;
+    for (Ipopt::Index k = 0; k < m; ++k)
+      for (Ipopt::Index i = 0; i < n; ++i) values[k * n + i] = jac_(k, i);
+    return true;
+  }
+
+  bool intermediate_callback(Ipopt::AlgorithmMode, Ipopt::Index iter, Ipopt::Number, Ipopt::Number,
+                             Ipopt::Number, Ipopt::Number, Ipopt::Number, Ipopt::Number,
+                             Ipopt::Number, Ipopt::Number, Ipopt::Index, const Ipopt::IpoptData*,
+                             Ipopt::IpoptCalculatedQuantities*) override {
+    iterations_ = iter;
+    return true;
+  }
+
+  void finalize_solution(Ipopt::SolverReturn, Ipopt::Index n, const Ipopt::Number* x,
+                         const Ipopt::Number*, const Ipopt::Number*, Ipopt::Index,
+                         const Ipopt::Number*, const Ipopt::Number*, Ipopt::Number,
+                         const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {
+    best_u_ = u_full_;
+    for (Ipopt::Index i = 0; i < n; ++i) best_u_[free_[i]] = x[i];
+  }
+
+ private:
+  // Objective and constraints at u (full vector); false if the model has no trajectory there.
+  bool value(const Eigen::VectorXd& u, double& f, Eigen::VectorXd& c) {
+    Eigen::Vector4d e;
+    double energy = 0.0;
+    if (!model_.evaluateConstraints(u, g_full_, e, &energy)) return false;
+    f = model_.settings().energy_weight * energy;
+    c.resize(m_);
+    int k = 0;
+    for (int i : active_) c[k++] = g_full_[i];
+    for (int i : residuals_) c[k++] = e[i];
+    if (apex_) c[k++] = e[3];
+    return true;
+  }
+
+  bool update(Ipopt::Index n, const Ipopt::Number* x, bool new_x) {
+    if (!new_x && have_) return ok_;
+    have_ = true;
+    Eigen::VectorXd u = u_full_;
+    for (Ipopt::Index i = 0; i < n; ++i) u[free_[i]] = x[i];
+    ok_ = value(u, f0_, c0_);
+    if (!ok_) return false;
+    grad_.resize(n);
+    jac_.resize(m_, n);
+    Eigen::VectorXd c1;
+    for (Ipopt::Index i = 0; i < n; ++i) {
+      const double h = 1e-7 * std::max(1.0, std::abs(u[free_[i]]));
+      Eigen::VectorXd up = u;
+      // Step inward at the upper bound so the probe stays in the box.
+      const double step = up[free_[i]] + h <= model_.upperBounds()[free_[i]] ? h : -h;
+      up[free_[i]] += step;
+      double f1 = 0.0;
+      if (!value(up, f1, c1)) return ok_ = false;
+      grad_[i] = (f1 - f0_) / step;
+      jac_.col(i) = (c1 - c0_) / step;
+    }
+    return true;
+  }
+
+  const JumpModel& model_;
+  Eigen::VectorXd u_full_, best_u_, g_full_;
+  std::vector<int> free_, active_, residuals_;
+  bool apex_ = false;
+  int m_ = 0;
+  int iterations_ = 0;
+  bool have_ = false, ok_ = false;
+  double f0_ = 0.0;
+  Eigen::VectorXd c0_, grad_;
+  Eigen::MatrixXd jac_;
+};
+
+}  // namespace
+
+PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
+                              int* iterations) {
+  u = u0;
+  Ipopt::SmartPtr<PolishNlp> nlp = new PolishNlp(model, u0);
+  Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
+  app->Options()->SetStringValue("sb", "yes");
+  app->Options()->SetIntegerValue("print_level", 0);
+  app->Options()->SetStringValue("hessian_approximation", "limited-memory");
+  app->Options()->SetStringValue("mu_strategy", "adaptive");
+  app->Options()->SetIntegerValue("max_iter", model.settings().polish_max_iterations);
+  app->Options()->SetNumericValue("tol", model.settings().polish_tolerance);
+  app->Options()->SetNumericValue("constr_viol_tol", 1e-6);
+  app->Options()->SetNumericValue("bound_push", 1e-6);
+  app->Options()->SetNumericValue("bound_frac", 1e-6);
+  std::lock_guard<std::mutex> lock(ipoptMutex());
+  if (app->Initialize() != Ipopt::Solve_Succeeded) return PolishOutcome::Failed;
+  const Ipopt::ApplicationReturnStatus status = app->OptimizeTNLP(nlp);
+  if (iterations) *iterations = nlp->iterations();
+  u = nlp->solution();
+  switch (status) {
+    case Ipopt::Solve_Succeeded:
+    case Ipopt::Solved_To_Acceptable_Level:
+    case Ipopt::Maximum_Iterations_Exceeded:
+    case Ipopt::Search_Direction_Becomes_Too_Small:
+    case Ipopt::Infeasible_Problem_Detected:
+    case Ipopt::Restoration_Failed:
+      return PolishOutcome::Rejected;  // the caller decides on the full evaluation
+    default:
+      return PolishOutcome::Failed;
+  }
+}
+
+}  // namespace wj::planner

@@ -1,0 +1,913 @@
+#include "planner/jump_model.h"
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace wj::planner {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kInvalidCost = 1e16;
+
+// Fixed-capacity polynomial in ascending powers: allocation-free for the DE's hot path.
+struct Poly {
+  static constexpr int kCap = 14;
+  std::array<double, kCap> c{};
+  int n = 0;  // number of coefficients in use
+
+  Poly() = default;
+  Poly(std::initializer_list<double> coeffs) {
+    for (double v : coeffs) c[n++] = v;
+  }
+  double operator()(double t) const {
+    double v = 0.0;
+    for (int i = n - 1; i >= 0; --i) v = v * t + c[i];
+    return v;
+  }
+};
+
+Poly operator+(const Poly& p, const Poly& q) {
+  Poly r;
+  r.n = std::max(p.n, q.n);
+  for (int i = 0; i < p.n; ++i) r.c[i] += p.c[i];
+  for (int i = 0; i < q.n; ++i) r.c[i] += q.c[i];
+  return r;
+}
+Poly operator*(double s, const Poly& p) {
+  Poly r = p;
+  for (int i = 0; i < r.n; ++i) r.c[i] *= s;
+  return r;
+}
+Poly operator*(const Poly& p, const Poly& q) {
+  Poly r;
+  if (p.n == 0 || q.n == 0) return r;
+  r.n = std::min(p.n + q.n - 1, Poly::kCap);
+  for (int i = 0; i < p.n; ++i)
+    for (int j = 0; j < q.n && i + j < Poly::kCap; ++j) r.c[i + j] += p.c[i] * q.c[j];
+  return r;
+}
+Poly integral(const Poly& p, double c0 = 0.0) {
+  Poly r;
+  r.n = std::min(p.n + 1, Poly::kCap);
+  r.c[0] = c0;
+  for (int i = 0; i + 1 < r.n; ++i) r.c[i + 1] = p.c[i] / (i + 1);
+  return r;
+}
+Poly derivative(const Poly& p) {
+  Poly r;
+  r.n = std::max(p.n - 1, 0);
+  for (int i = 1; i < p.n; ++i) r.c[i - 1] = p.c[i] * i;
+  return r;
+}
+
+Polynomial toPolynomial(const Poly& p) {
+  return Polynomial{{p.c.begin(), p.c.begin() + p.n}};
+}
+
+// Rotation of body-frame x-z vectors by pitch (nose-up positive): R = [[c, -s], [s, c]].
+// Built once per sample so that the trigonometry is not repeated for every point.
+struct Rot2 {
+  double c = 1.0, s = 0.0;
+  explicit Rot2(double pitch) : c(std::cos(pitch)), s(std::sin(pitch)) {}
+  Eigen::Vector2d operator*(const Eigen::Vector2d& v) const {
+    return {c * v.x() - s * v.y(), s * v.x() + c * v.y()};
+  }
+  Eigen::Vector2d transposeTimes(const Eigen::Vector2d& v) const {
+    return {c * v.x() + s * v.y(), -s * v.x() + c * v.y()};
+  }
+};
+Eigen::Vector2d rot(double pitch, const Eigen::Vector2d& v) {
+  return Rot2(pitch) * v;
+}
+
+double wrapToPi(double a) {
+  return std::remainder(a, 2.0 * M_PI);
+}
+
+double smoothstep(double xi) {
+  xi = std::clamp(xi, 0.0, 1.0);
+  return xi * xi * (3.0 - 2.0 * xi);
+}
+double smoothstepRate(double xi) {
+  return (xi <= 0.0 || xi >= 1.0) ? 0.0 : 6.0 * xi * (1.0 - xi);
+}
+
+// Signed distance from point p to the obstacle box [x_min, x_max] x [0, height] (x-z).
+double boxDistance(const BoxObstacle& box, const Eigen::Vector2d& p) {
+  const double dx = std::max({box.x_min - p.x(), 0.0, p.x() - box.x_max});
+  const double dz = std::max(p.y() - box.height, 0.0);
+  if (dx == 0.0 && dz == 0.0)
+    return -std::min({p.x() - box.x_min, box.x_max - p.x(), box.height - p.y()});
+  return std::hypot(dx, dz);
+}
+
+// One axis (x or z) of the take-off: force polynomials from sampled positions. Accelerations
+// are F/m - g; phase 1 force affine in t, phase 2 force quadratic in tau = t - t1.
+struct AxisSolution {
+  Poly F1, F2;  // force [N]
+  Poly P1, P2;  // position [m]
+};
+
+bool solveAxis(double m, double g, double p0, double v0, bool two_step, double t1, double T2,
+               double pm, double pe, double ve, AxisSolution& out) {
+  if (!two_step) {
+    // x(T) = pe and xdot(T) = ve with F = a0 + a1 t (docs/planner.md, Eq. S1).
+    const double T = t1;
+    Eigen::Matrix2d A;
+    A << T * T / 2, T * T * T / 6, T, T * T / 2;
+    const Eigen::Vector2d b(m * (pe - p0 - v0 * T + g * T * T / 2), m * (ve - v0 + g * T));
+    const double det = A.determinant();
+    if (!(std::abs(det) > 1e-14)) return false;
+    const Eigen::Vector2d a = A.inverse() * b;
+    out.F1 = {a[0], a[1]};
+    out.F2 = {};
+    out.P1 = {p0, v0, a[0] / (2 * m) - g / 2, a[1] / (6 * m)};
+    out.P2 = {};
+    return true;
+  }
+  // Two-step (Eq. S2): unknowns a0..a4, F1 = a0 + a1 t, F2 = a2 + a3 tau + a4 tau^2.
+  const double h = t1 / 2, T = t1 + T2;
+  Eigen::Matrix<double, 5, 5> A = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 5, 1> b;
+  A.row(0) << h * h / 2, h * h * h / 6, 0, 0, 0;  // x(t1/2) = pm
+  b[0] = m * (pm - p0 - v0 * h + g * h * h / 2);
+  A.row(1) << -1, -t1, 1, 0, 0;  // F continuous at t1 (the front force is 0 there)
+  b[1] = 0;
+  A.row(2) << 0, -1, 0, 1, 0;  // dF/dt continuous at t1
+  b[2] = 0;
+  A.row(3) << t1 * t1 / 2 + t1 * T2, t1 * t1 * t1 / 6 + t1 * t1 * T2 / 2, T2 * T2 / 2,
+      T2 * T2 * T2 / 6, T2 * T2 * T2 * T2 / 12;  // x(t2) = pe
+  b[3] = m * (pe - p0 - v0 * T + g * T * T / 2);
+  A.row(4) << t1, t1 * t1 / 2, T2, T2 * T2 / 2, T2 * T2 * T2 / 3;  // xdot(t2) = ve
+  b[4] = m * (ve - v0 + g * T);
+  const Eigen::PartialPivLU<Eigen::Matrix<double, 5, 5>> lu(A);
+  if (!(std::abs(lu.determinant()) > 1e-18)) return false;
+  const Eigen::Matrix<double, 5, 1> a = lu.solve(b);
+  out.F1 = {a[0], a[1]};
+  out.F2 = {a[2], a[3], a[4]};
+  out.P1 = {p0, v0, a[0] / (2 * m) - g / 2, a[1] / (6 * m)};
+  const double p1 = out.P1(t1), v1 = derivative(out.P1)(t1);
+  out.P2 = {p1, v1, a[2] / (2 * m) - g / 2, a[3] / (6 * m), a[4] / (12 * m)};
+  return true;
+}
+
+}  // namespace
+
+/// The solved take-off: every polynomial of the trajectory.
+struct Solved {
+  bool two_step = false;
+  double t1 = 0, T2 = 0, t2 = 0, Tf = 0, t3 = 0;
+  Poly X1, Z1, P1, VX1, VZ1, W1;  // phase 1, in t
+  Poly fHx1, fHz1, fFx1, fFz1;    // pair forces, phase 1
+  Poly X2, Z2, P2, VX2, VZ2, W2;  // phase 2, in tau = t - t1
+  Poly fHx2, fHz2;                // hind forces, phase 2
+  Poly dH2, ddH2;                 // hind axle offset from the CoM and its rate, phase 2
+  PlanarState mid, takeoff, touchdown;
+  Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
+  double front_wheel_rate_t1 = 0.0;
+};
+
+/// Kinematics and statics of one wheel pair at one instant (left leg; right is mirrored).
+struct PairSample {
+  bool contact = false;
+  Eigen::Vector2d q = Eigen::Vector2d::Zero();     // HFE, KFE [rad]
+  Eigen::Vector2d qd = Eigen::Vector2d::Zero();    // [rad/s]
+  Eigen::Vector2d tau = Eigen::Vector2d::Zero();   // HFE, KFE [Nm]
+  double haa_fz = 0.0;                             // body-z force per wheel, for the HAA torque [N]
+  double wheel_rate = 0.0;                         // wheel joint speed [rad/s]
+  double wheel_tau = 0.0;                          // [Nm]
+  Eigen::Vector2d f = Eigen::Vector2d::Zero();     // ground force per wheel, J frame [N]
+  Eigen::Vector2d axle = Eigen::Vector2d::Zero();  // axle position in J [m]
+  double reach = 0.0;                              // reach margin [m]
+};
+
+struct Sample {
+  double t = 0.0;
+  PlanarState s;
+  PairSample hind, front;
+};
+
+struct JumpModelAccess {
+  static bool solve(const JumpModel& M, const Eigen::Ref<const Eigen::VectorXd>& u, Solved& S) {
+    const auto& st = M.settings_;
+    const PlanarState& s0 = M.initial_;
+    const double m = M.mass_, g = st.gravity, I = M.inertia_;
+    S.two_step = M.task_.mode == TakeoffMode::TwoStep;
+    S.t1 = u[kT1];
+    S.T2 = S.two_step ? u[kT2MinusT1] : 0.0;
+    S.t2 = S.t1 + S.T2;
+    if (!(S.t1 > 0.0) || !(S.T2 >= 0.0)) return false;
+    const double v0 = s0.vx;
+    const double xm = v0 * S.t1 / 2 + u[kMidDx], zm = s0.z + u[kMidDz],
+                 pm = s0.pitch + u[kMidDpitch];
+    const double xe = v0 * S.t2 + u[kTakeoffDx], ze = s0.z + u[kTakeoffDz],
+                 pe = s0.pitch + u[kTakeoffDpitch];
+    const double vxe = v0 + u[kTakeoffDvx], vze = u[kTakeoffVz], we = u[kTakeoffRate];
+
+    AxisSolution ax, az;
+    if (!solveAxis(m, 0.0, s0.x, s0.vx, S.two_step, S.t1, S.T2, xm, xe, vxe, ax)) return false;
+    if (!solveAxis(m, g, s0.z, s0.vz, S.two_step, S.t1, S.T2, zm, ze, vze, az)) return false;
+    S.X1 = ax.P1;
+    S.Z1 = az.P1;
+    S.X2 = ax.P2;
+    S.Z2 = az.P2;
+
+    // Pitch (Eq. S3): I theta'' = d_H Fz + (d_F - d_H) f_Fz + z Fx about the CoM.
+    const double dH = M.d_hind_, dd = M.d_front_ - M.d_hind_;
+    const Poly A1 = dH * az.F1 + S.Z1 * ax.F1;
+    const Poly IA1 = integral(A1), IIA1 = integral(IA1);
+    Poly fFz1;
+    if (!S.two_step) {
+      const double T = S.t1;
+      Eigen::Matrix2d A;
+      A << dd * T * T / 2, dd * T * T * T / 6, dd * T, dd * T * T / 2;
+      const Eigen::Vector2d b(I * (pe - s0.pitch - s0.pitch_rate * T) - IIA1(T),
+                              I * (we - s0.pitch_rate) - IA1(T));
+      if (!(std::abs(A.determinant()) > 1e-14)) return false;
+      const Eigen::Vector2d c = A.inverse() * b;
+      fFz1 = {c[0], c[1]};
+      S.P1 = integral(integral((1.0 / I) * (A1 + dd * fFz1), s0.pitch_rate), s0.pitch);
+    } else {
+      const double t1 = S.t1, T2 = S.T2, h = t1 / 2;
+      const Poly B1 = {-dd * t1, dd};  // (d_F - d_H)(t - t1): the front force vanishes at t1
+      const Poly IB1 = integral(B1), IIB1 = integral(IB1);
+      const Poly A2 = dH * az.F2 + S.Z2 * ax.F2;
+      const Poly tau1 = {0.0, 1.0}, tau2 = {0.0, 0.0, 1.0};
+      const Poly C1 = tau1 * az.F2, C2 = tau2 * az.F2;
+      const Poly IA2 = integral(A2), IIA2 = integral(IA2);
+      const Poly IC1 = integral(C1), IIC1 = integral(IC1);
+      const Poly IC2 = integral(C2), IIC2 = integral(IC2);
+      Eigen::Matrix3d A;
+      Eigen::Vector3d b;
+      A.row(0) << IIB1(h), 0, 0;
+      b[0] = I * (pm - s0.pitch - s0.pitch_rate * h) - IIA1(h);
+      A.row(1) << IIB1(t1) + IB1(t1) * T2, IIC1(T2), IIC2(T2);
+      b[1] = I * (pe - s0.pitch - s0.pitch_rate * (t1 + T2)) - IIA1(t1) - IA1(t1) * T2 - IIA2(T2);
+      A.row(2) << IB1(t1), IC1(T2), IC2(T2);
+      b[2] = I * (we - s0.pitch_rate) - IA1(t1) - IA2(T2);
+      const Eigen::PartialPivLU<Eigen::Matrix3d> lu(A);
+      if (!(std::abs(lu.determinant()) > 1e-18)) return false;
+      const Eigen::Vector3d k = lu.solve(b);
+      fFz1 = k[0] * Poly{-t1, 1.0};
+      S.P1 = integral(integral((1.0 / I) * (A1 + k[0] * B1), s0.pitch_rate), s0.pitch);
+      const double th1 = S.P1(t1), w1 = derivative(S.P1)(t1);
+      S.P2 = integral(integral((1.0 / I) * (A2 + k[1] * C1 + k[2] * C2), w1), th1);
+      S.dH2 = {dH, k[1], k[2]};
+      S.ddH2 = derivative(S.dH2);
+      S.fHx2 = ax.F2;
+      S.fHz2 = az.F2;
+    }
+    // Horizontal split: the front pair takes the same ratio of horizontal to normal force as
+    // the whole robot over phase 1 (it does not enter the dynamics: both contacts are at z = 0).
+    const Poly IFz = integral(az.F1), IFx = integral(ax.F1);
+    const double impulse_z = IFz(S.t1);
+    if (!(impulse_z > 0.0)) return false;
+    const double kappa = IFx(S.t1) / impulse_z;
+    S.fFz1 = fFz1;
+    S.fFx1 = kappa * fFz1;
+    S.fHz1 = az.F1 + (-1.0) * fFz1;
+    S.fHx1 = ax.F1 + (-1.0) * S.fFx1;
+
+    S.VX1 = derivative(S.X1);
+    S.VZ1 = derivative(S.Z1);
+    S.W1 = derivative(S.P1);
+    S.VX2 = derivative(S.X2);
+    S.VZ2 = derivative(S.Z2);
+    S.W2 = derivative(S.P2);
+    S.mid = stateAt(S, S.t1 / 2, g);
+    S.takeoff = stateAt(S, S.t2, g);
+
+    // Flight: ballistic CoM, constant pitch rate; t3 is when the CoM descends to the landing
+    // height (the touchdown target height, or the landing posture's standing height).
+    const double z_td =
+        M.task_.target.event == TargetEvent::Touchdown ? M.task_.target.height : M.z_land_;
+    const double disc = S.takeoff.vz * S.takeoff.vz + 2 * g * (S.takeoff.z - z_td);
+    if (!(disc >= 0.0)) return false;
+    S.Tf = (S.takeoff.vz + std::sqrt(disc)) / g;
+    if (!(S.Tf > 1e-3)) return false;
+    S.t3 = S.t2 + S.Tf;
+    S.touchdown = stateAt(S, S.t3, g);
+
+    if (S.two_step) {
+      // The front legs hold their t1 posture relative to the body once lifted.
+      Sample smp;
+      contactSample(M, S, S.t1, smp, /*phase2=*/false);
+      S.front_b_t1 = M.leg_.forward(smp.front.q);
+      S.front_wheel_rate_t1 = smp.front.wheel_rate;
+    }
+    return true;
+  }
+
+  static PlanarState stateAt(const Solved& S, double t, double g) {
+    PlanarState s;
+    if (t <= S.t1 || !S.two_step) {
+      const double tc = std::min(t, S.t1);
+      s = {S.X1(tc), S.Z1(tc), S.P1(tc), S.VX1(tc), S.VZ1(tc), S.W1(tc)};
+      if (!S.two_step && t > S.t1) s = ballisticG(s, t - S.t1, g);
+    } else {
+      const double tau = std::min(t, S.t2) - S.t1;
+      s = {S.X2(tau), S.Z2(tau), S.P2(tau), S.VX2(tau), S.VZ2(tau), S.W2(tau)};
+    }
+    if (S.two_step && t > S.t2) s = ballisticG(s, t - S.t2, g);
+    return s;
+  }
+
+  static PlanarState ballisticG(const PlanarState& s, double dt, double g) {
+    PlanarState r = s;
+    r.x += s.vx * dt;
+    r.z += s.vz * dt - 0.5 * g * dt * dt;
+    r.vz -= g * dt;
+    r.pitch += s.pitch_rate * dt;
+    return r;
+  }
+
+  // Kinematics and statics of both pairs at time t of the take-off.
+  static void contactSample(const JumpModel& M, const Solved& S, double t, Sample& out,
+                            bool phase2) {
+    out.t = t;
+    PlanarState s;
+    Poly fHx, fHz, fFx, fFz;
+    double dH = M.d_hind_, dHdot = 0.0;
+    if (!phase2) {
+      s = {S.X1(t), S.Z1(t), S.P1(t), S.VX1(t), S.VZ1(t), S.W1(t)};
+    } else {
+      const double tau = t - S.t1;
+      s = {S.X2(tau), S.Z2(tau), S.P2(tau), S.VX2(tau), S.VZ2(tau), S.W2(tau)};
+      dH = S.dH2(tau);
+      dHdot = S.ddH2(tau);
+    }
+    out.s = s;
+    const double local = phase2 ? t - S.t1 : t;
+    const Eigen::Vector2d fH = phase2 ? Eigen::Vector2d(S.fHx2(local), S.fHz2(local))
+                                      : Eigen::Vector2d(S.fHx1(local), S.fHz1(local));
+    pairSample(M, s, M.hind_, dH, dHdot, 0.5 * fH, out.hind);
+    if (!phase2) {
+      const Eigen::Vector2d fF(S.fFx1(local), S.fFz1(local));
+      pairSample(M, s, M.front_, M.d_front_, 0.0, 0.5 * fF, out.front);
+    } else {
+      PairSample& p = out.front;
+      p = PairSample{};
+      p.contact = false;
+      p.q = M.leg_.inverse(S.front_b_t1, &p.reach);
+      p.wheel_rate = S.front_wheel_rate_t1;
+      p.axle = Eigen::Vector2d(s.x, s.z) + rot(s.pitch, M.front_.hip_rel_com + S.front_b_t1);
+    }
+  }
+
+  static void pairSample(const JumpModel& M, const PlanarState& s, const JumpModel::Geometry& geo,
+                         double d, double d_rate, const Eigen::Vector2d& f, PairSample& p) {
+    const double r = M.wheel_radius_;
+    p.contact = true;
+    p.f = f;
+    p.axle = Eigen::Vector2d(s.x + d, r);
+    const Eigen::Vector2d axle_vel(s.vx + d_rate, 0.0);
+    const Rot2 R(s.pitch);
+    const Eigen::Vector2d hip_rel = R * geo.hip_rel_com;
+    const Eigen::Vector2d hip = Eigen::Vector2d(s.x, s.z) + hip_rel;
+    const Eigen::Vector2d hip_vel =
+        Eigen::Vector2d(s.vx, s.vz) + s.pitch_rate * Eigen::Vector2d(-hip_rel.y(), hip_rel.x());
+    const Eigen::Vector2d b = R.transposeTimes(p.axle - hip);
+    const Eigen::Vector2d b_dot =
+        R.transposeTimes(axle_vel - hip_vel) + s.pitch_rate * Eigen::Vector2d(b.y(), -b.x());
+    const LegPose pose = M.leg_.inversePose(b, &p.reach);
+    p.q = pose.q;
+    const Eigen::Matrix2d J = M.leg_.jacobian(pose);
+    const double det = J.determinant();
+    p.qd = std::abs(det) > 1e-9 ? Eigen::Vector2d(J.inverse() * b_dot) : Eigen::Vector2d(1e3, 1e3);
+    const Eigen::Vector2d contact_b = b + R.transposeTimes(Eigen::Vector2d(0.0, -r));
+    const Eigen::Vector2d f_b = R.transposeTimes(f);
+    p.tau = M.leg_.balancingTorque(pose, contact_b, f_b);
+    p.haa_fz = f_b.y();
+    // Rolling without slip: wheel rate about +y is v_axle / r; the shank turns at
+    // -pitch_rate + qd1 + qd2 about +y (nose-up pitch is a rotation about -y).
+    p.wheel_rate = axle_vel.x() / r - (-s.pitch_rate + p.qd[0] + p.qd[1]);
+    p.wheel_tau = r * f.x();
+  }
+
+  // Feeds every sampled margin of one take-off sample to `sink(class, margin, t, location)`.
+  template <class Sink>
+  static void emitContact(const JumpModel& M, const Sample& smp, Sink& sink) {
+    const auto& st = M.settings_;
+    for (int pair = 0; pair < 2; ++pair) {
+      const PairSample& p = pair == 0 ? smp.hind : smp.front;
+      const model::Leg leg = pair == 0 ? model::Leg::LH : model::Leg::LF;
+      const int base = model::jointIndex(leg, model::JointKind::HAA);
+      const int loc_pair = pair == 0 ? -1 : -2;
+      const double lever = pair == 0 ? M.hind_.haa_lever : M.front_.haa_lever;
+      if (p.contact) {
+        sink(ConstraintClass::NormalForce, p.f.y() - st.min_normal_force_n, smp.t, loc_pair);
+        sink(ConstraintClass::FrictionCone, st.friction_mu * p.f.y() - std::abs(p.f.x()), smp.t,
+             loc_pair);
+      } else {
+        sink(ConstraintClass::NormalForce, JumpModel::classScale(ConstraintClass::NormalForce),
+             smp.t, loc_pair);
+        sink(ConstraintClass::FrictionCone, JumpModel::classScale(ConstraintClass::FrictionCone),
+             smp.t, loc_pair);
+      }
+      sink(ConstraintClass::JointPosition, p.reach / M.leg_.l1, smp.t, base + 2);
+      sink(ConstraintClass::JointPosition, std::min(p.q[0] - M.lim_hfe_[0], M.lim_hfe_[1] - p.q[0]),
+           smp.t, base + 1);
+      sink(ConstraintClass::JointPosition, std::min(p.q[1] - M.lim_kfe_[0], M.lim_kfe_[1] - p.q[1]),
+           smp.t, base + 2);
+      sink(ConstraintClass::JointSpeed, M.env_hfe_.speedMargin(p.qd[0]), smp.t, base + 1);
+      sink(ConstraintClass::JointSpeed, M.env_kfe_.speedMargin(p.qd[1]), smp.t, base + 2);
+      const double tau_haa = lever * p.haa_fz;
+      sink(ConstraintClass::JointTorque, M.env_haa_.peak_torque_nm - std::abs(tau_haa), smp.t,
+           base);
+      sink(ConstraintClass::JointTorque, M.env_hfe_.peak_torque_nm - std::abs(p.tau[0]), smp.t,
+           base + 1);
+      sink(ConstraintClass::JointTorque, M.env_kfe_.peak_torque_nm - std::abs(p.tau[1]), smp.t,
+           base + 2);
+      sink(ConstraintClass::ActuatorEnvelope, M.env_haa_.torqueMargin(tau_haa, 0.0), smp.t, base);
+      sink(ConstraintClass::ActuatorEnvelope, M.env_hfe_.torqueMargin(p.tau[0], p.qd[0]), smp.t,
+           base + 1);
+      sink(ConstraintClass::ActuatorEnvelope, M.env_kfe_.torqueMargin(p.tau[1], p.qd[1]), smp.t,
+           base + 2);
+      sink(ConstraintClass::WheelTraction, M.env_wheel_.torqueMargin(p.wheel_tau, p.wheel_rate),
+           smp.t, base + 3);
+      sink(ConstraintClass::WheelSpeed, M.env_wheel_.speedMargin(p.wheel_rate), smp.t, base + 3);
+    }
+    emitBody(M, smp.t, smp.s, &smp, nullptr, sink);
+  }
+
+  // Body height and obstacle margins at one instant. In take-off the wheel axles come from the
+  // sample; in flight from the blended leg posture `flight_q` (HFE, KFE) per pair.
+  template <class Sink>
+  static void emitBody(const JumpModel& M, double t, const PlanarState& s, const Sample* smp,
+                       const std::array<Eigen::Vector2d, 2>* flight_q, Sink& sink) {
+    const Eigen::Vector2d com(s.x, s.z);
+    double lowest = kInf;
+    double clearance = kInf;
+    const auto* box = M.task_.obstacle ? &*M.task_.obstacle : nullptr;
+    const Rot2 R(s.pitch);
+    for (int i = 0; i < 8; ++i) {
+      // 4 corners and 4 edge midpoints of the base box.
+      static constexpr std::array<std::array<double, 2>, 8> kPts = {
+          {{1, 1}, {1, -1}, {-1, 1}, {-1, -1}, {0, 1}, {0, -1}, {1, 0}, {-1, 0}}};
+      const Eigen::Vector2d pb = M.base_rel_com_ + Eigen::Vector2d(kPts[i][0] * M.box_half_.x(),
+                                                                   kPts[i][1] * M.box_half_.y());
+      const Eigen::Vector2d p = com + R * pb;
+      lowest = std::min(lowest, p.y());
+      if (box) clearance = std::min(clearance, boxDistance(*box, p));
+    }
+    sink(ConstraintClass::BodyHeight, lowest - M.settings_.min_body_clearance_m, t, -3);
+    if (box) {
+      for (int pair = 0; pair < 2; ++pair) {
+        Eigen::Vector2d axle;
+        if (smp) {
+          axle = pair == 0 ? smp->hind.axle : smp->front.axle;
+        } else {
+          const auto& geo = pair == 0 ? M.hind_ : M.front_;
+          axle = com + R * (geo.hip_rel_com + M.leg_.forward((*flight_q)[pair]));
+        }
+        clearance = std::min(clearance, boxDistance(*box, axle) - M.wheel_radius_);
+      }
+      sink(ConstraintClass::ObstacleClearance, clearance - M.settings_.obstacle_margin_m, t, -3);
+    }
+  }
+
+  // Blended (HFE, KFE) of a pair in flight at time t.
+  static Eigen::Vector2d flightPosture(const JumpModel& M, const Solved& S,
+                                       const Eigen::Vector2d& q_takeoff, double t,
+                                       Eigen::Vector2d* qd) {
+    const double T = M.settings_.flight_blend_fraction * S.Tf;
+    const double xi = (t - S.t2) / T;
+    const Eigen::Vector2d delta = M.q_landing_ - q_takeoff;
+    if (qd) *qd = delta * smoothstepRate(xi) / T;
+    return q_takeoff + delta * smoothstep(xi);
+  }
+
+  // Sweeps every constraint sample of a solved take-off and flight through `sink`, and
+  // accumulates energy and joint maxima into the optional evaluation.
+  template <class Sink>
+  static void sweep(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev) {
+    const auto& st = M.settings_;
+    double energy = 0.0, prev_power = 0.0, prev_t = 0.0;
+    Sample smp;
+    Eigen::Vector2d q_to_hind, q_to_front;
+    const int n_phases = S.two_step ? 2 : 1;
+    for (int phase = 0; phase < n_phases; ++phase) {
+      const int n = phase == 0 ? st.samples_phase1 : st.samples_phase2;
+      const double t_start = phase == 0 ? 0.0 : S.t1;
+      const double T = phase == 0 ? S.t1 : S.T2;
+      for (int k = 0; k < n; ++k) {
+        const double t = t_start + T * k / (n - 1);
+        contactSample(M, S, t, smp, phase == 1);
+        emitContact(M, smp, sink);
+        double power = 0.0;
+        for (const PairSample* p : {&smp.hind, &smp.front}) {
+          if (!p->contact) continue;
+          power += 2.0 * (std::abs(p->tau[0] * p->qd[0]) + std::abs(p->tau[1] * p->qd[1]) +
+                          std::abs(p->wheel_tau * p->wheel_rate));
+          if (ev) {
+            const double haa =
+                std::abs((p == &smp.hind ? M.hind_ : M.front_).haa_lever * p->haa_fz);
+            auto& mt = ev->max_abs_torque_nm;
+            auto& ms = ev->max_abs_speed_rad_s;
+            mt[0] = std::max(mt[0], haa);
+            mt[1] = std::max(mt[1], std::abs(p->tau[0]));
+            mt[2] = std::max(mt[2], std::abs(p->tau[1]));
+            mt[3] = std::max(mt[3], std::abs(p->wheel_tau));
+            ms[1] = std::max(ms[1], std::abs(p->qd[0]));
+            ms[2] = std::max(ms[2], std::abs(p->qd[1]));
+            ms[3] = std::max(ms[3], std::abs(p->wheel_rate));
+          }
+        }
+        if (t > prev_t) energy += 0.5 * (power + prev_power) * (t - prev_t);
+        prev_power = power;
+        prev_t = t;
+      }
+    }
+    q_to_hind = smp.hind.q;
+    q_to_front = smp.front.q;
+    for (int k = 1; k <= st.samples_flight; ++k) {
+      const double t = S.t2 + S.Tf * k / st.samples_flight;
+      const PlanarState s = ballisticG(S.takeoff, t - S.t2, st.gravity);
+      const std::array<Eigen::Vector2d, 2> q = {flightPosture(M, S, q_to_hind, t, nullptr),
+                                                flightPosture(M, S, q_to_front, t, nullptr)};
+      emitBody(M, t, s, nullptr, &q, sink);
+    }
+    if (ev) ev->energy_j = energy;
+  }
+
+  static void targetErrors(const JumpModel& M, const Solved& S, Eigen::Vector4d& e,
+                           JumpOutcome& out) {
+    const auto& tgt = M.task_.target;
+    const PlanarState& to = S.takeoff;
+    const double g = M.settings_.gravity;
+    auto event = [&](double t, const PlanarState& s) {
+      JumpEvent ev;
+      ev.t = t;
+      ev.state = s;
+      ev.base_z = s.z + rot(s.pitch, M.base_rel_com_).y();
+      return ev;
+    };
+    out.takeoff = event(S.t2, to);
+    const double t_apex = std::max(to.vz / g, 0.0);
+    out.apex = event(S.t2 + t_apex, ballisticG(to, t_apex, g));
+    out.touchdown = event(S.t3, S.touchdown);
+    const PlanarState& s0 = M.initial_;
+    const PlanarState& at = tgt.event == TargetEvent::Apex ? out.apex.state : S.touchdown;
+    e[0] = at.x - s0.x - tgt.dx;
+    e[1] = tgt.event == TargetEvent::Apex ? at.z - tgt.height : 0.0;
+    e[2] = at.pitch - s0.pitch - tgt.pitch_change;
+    // Apex targets must still land upright (pitch a multiple of 2 pi at touchdown).
+    e[3] = tgt.event == TargetEvent::Apex ? wrapToPi(S.touchdown.pitch) : 0.0;
+  }
+};
+
+JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& settings,
+                     const JumpTask& task, const InitialState& initial)
+    : robot_(robot), settings_(settings), task_(task), init_input_(initial) {
+  settings_.validate();
+  task_.validate();
+  init_input_.validate(robot_);
+  using model::JointKind;
+  using model::Leg;
+  const auto& lg = robot_.legGeometry(Leg::LF);
+  leg_ = PlanarLeg{lg.thigh_length, robot_.legGeometry(Leg::LF).shank_length};
+  wheel_radius_ = robot_.wheelRadius();
+  mass_ = robot_.totalMass();
+  env_haa_ = robot_.joint(Leg::LF, JointKind::HAA).actuator;
+  env_hfe_ = robot_.joint(Leg::LF, JointKind::HFE).actuator;
+  env_kfe_ = robot_.joint(Leg::LF, JointKind::KFE).actuator;
+  env_wheel_ = robot_.joint(Leg::LF, JointKind::Wheel).actuator;
+  lim_hfe_ = {robot_.joint(Leg::LF, JointKind::HFE).lower_rad,
+              robot_.joint(Leg::LF, JointKind::HFE).upper_rad};
+  lim_kfe_ = {robot_.joint(Leg::LF, JointKind::KFE).lower_rad,
+              robot_.joint(Leg::LF, JointKind::KFE).upper_rad};
+
+  // Composite inertia in the take-off posture (held constant: docs/planner.md, S-3).
+  const Eigen::VectorXd q0 = init_input_.q;
+  const model::Inertia inertia = robot_.calcCompositeInertia(q0);
+  inertia_ = inertia.inertia_com(1, 1);
+  const Eigen::Vector2d com_b(inertia.com.x(), inertia.com.z());
+  base_rel_com_ = -com_b;
+  box_half_ = Eigen::Vector2d(robot_.baseBoxSize().x() / 2, robot_.baseBoxSize().z() / 2);
+  const auto X = robot_.calcLinkPoses(q0);
+  auto geometry = [&](Leg leg) {
+    const auto& g = robot_.legGeometry(leg);
+    Geometry geo;
+    const Eigen::Vector3d hfe = g.p_BH + g.p_HT;
+    geo.hip_rel_com = Eigen::Vector2d(hfe.x(), hfe.z()) - com_b;
+    geo.haa_lever = g.p_HT.y() + g.wheel_lateral_offset;
+    return geo;
+  };
+  hind_ = geometry(Leg::LH);
+  front_ = geometry(Leg::LF);
+  auto axle_rel_com = [&](Leg leg) {
+    const Eigen::Vector3d p = X[robot_.joint(leg, JointKind::Wheel).child_link].translation();
+    return rot(init_input_.pitch, Eigen::Vector2d(p.x(), p.z()) - com_b);
+  };
+  const Eigen::Vector2d a_h = axle_rel_com(Leg::LH), a_f = axle_rel_com(Leg::LF);
+  d_hind_ = a_h.x();
+  d_front_ = a_f.x();
+  if (!(d_front_ - d_hind_ > 0.05))
+    throw std::invalid_argument("initial.q: the front wheels must be ahead of the hind wheels");
+  initial_.x = 0.0;
+  initial_.z = wheel_radius_ - 0.5 * (a_h.y() + a_f.y());
+  initial_.pitch = init_input_.pitch;
+  initial_.vx = init_input_.v0;
+  initial_.vz = 0.0;
+  initial_.pitch_rate = init_input_.pitch_rate;
+  q_landing_ = Eigen::Vector2d(settings_.landing_hfe_rad, settings_.landing_kfe_rad);
+  Eigen::VectorXd q_land = q0;
+  for (const Leg leg : model::kLegs) {
+    q_land[model::jointIndex(leg, JointKind::HFE)] = q_landing_[0];
+    q_land[model::jointIndex(leg, JointKind::KFE)] = q_landing_[1];
+  }
+  z_land_ = standingComHeight(robot_, q_land);
+  if (task_.obstacle && task_.obstacle->x_min <= d_front_ + wheel_radius_)
+    throw std::invalid_argument("task.obstacle.x_min must be ahead of the front wheels (> " +
+                                std::to_string(d_front_ + wheel_radius_) +
+                                " m in the jump frame), got " +
+                                std::to_string(task_.obstacle->x_min));
+
+  const auto& s = settings_;
+  lower_.resize(kNumDecision);
+  upper_.resize(kNumDecision);
+  auto set = [&](int i, const std::array<double, 2>& b, double offset = 0.0) {
+    lower_[i] = b[0] + offset;
+    upper_[i] = b[1] + offset;
+  };
+  set(kMidDx, s.mid_dx_m);
+  set(kMidDz, s.mid_dz_m);
+  set(kMidDpitch, s.mid_dpitch_rad);
+  set(kTakeoffDx, s.takeoff_dx_m);
+  set(kTakeoffDz, s.takeoff_dz_m);
+  set(kTakeoffDpitch, s.takeoff_dpitch_rad);
+  set(kTakeoffDvx, s.takeoff_dvx_m_s);
+  set(kTakeoffVz, s.takeoff_vz_m_s);
+  set(kTakeoffRate, s.takeoff_pitch_rate_rad_s);
+  set(kT1, s.t1_s);
+  set(kT2MinusT1, s.t2_minus_t1_s);
+  if (task_.mode == TakeoffMode::Simultaneous) {
+    for (int i : {kMidDx, kMidDz, kMidDpitch, kT2MinusT1}) lower_[i] = upper_[i] = 0.0;
+  }
+  const int per_contact = 2 * 15 + 1 + (task_.obstacle ? 1 : 0);
+  const int per_flight = 1 + (task_.obstacle ? 1 : 0);
+  num_constraint_samples_ =
+      per_contact *
+          (s.samples_phase1 + (task_.mode == TakeoffMode::TwoStep ? s.samples_phase2 : 0)) +
+      per_flight * s.samples_flight;
+}
+
+double JumpModel::standingComHeight(const model::RobotModel& robot, const Eigen::VectorXd& q) {
+  const model::Inertia inertia = robot.calcCompositeInertia(q);
+  const auto X = robot.calcLinkPoses(q);
+  double lowest = kInf;
+  for (const model::Leg leg : model::kLegs)
+    lowest =
+        std::min(lowest, X[robot.joint(leg, model::JointKind::Wheel).child_link].translation().z() -
+                             inertia.com.z());
+  return robot.wheelRadius() - lowest;
+}
+
+double JumpModel::classScale(ConstraintClass c) {
+  switch (c) {
+    case ConstraintClass::NormalForce:
+    case ConstraintClass::FrictionCone:
+      return 50.0;
+    case ConstraintClass::JointPosition:
+      return 0.2;
+    case ConstraintClass::JointSpeed:
+    case ConstraintClass::WheelSpeed:
+      return 5.0;
+    case ConstraintClass::JointTorque:
+    case ConstraintClass::ActuatorEnvelope:
+    case ConstraintClass::WheelTraction:
+      return 5.0;
+    case ConstraintClass::BodyHeight:
+    case ConstraintClass::ObstacleClearance:
+      return 0.05;
+  }
+  return 1.0;
+}
+
+int JumpModel::classPriority(ConstraintClass c) {
+  switch (c) {
+    case ConstraintClass::JointPosition:
+      return 10;
+    case ConstraintClass::NormalForce:
+      return 9;
+    case ConstraintClass::FrictionCone:
+      return 8;
+    case ConstraintClass::BodyHeight:
+      return 7;
+    case ConstraintClass::ObstacleClearance:
+      return 6;
+    case ConstraintClass::JointTorque:
+      return 5;
+    case ConstraintClass::ActuatorEnvelope:
+      return 4;
+    case ConstraintClass::JointSpeed:
+      return 3;
+    case ConstraintClass::WheelTraction:
+      return 2;
+    case ConstraintClass::WheelSpeed:
+      return 1;
+  }
+  return 1;
+}
+
+void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation& ev) const {
+  ev = Evaluation{};
+  Solved S;
+  if (!JumpModelAccess::solve(*this, u, S)) {
+    ev.valid = false;
+    ev.cost = kInvalidCost;
+    return;
+  }
+  ev.valid = true;
+  auto sink = [&ev](ConstraintClass c, double margin, double t, int loc) {
+    ClassMargin& m = ev.margins[static_cast<int>(c)];
+    if (margin < m.worst) {
+      m.worst = margin;
+      m.t = t;
+      m.location = loc;
+    }
+  };
+  JumpModelAccess::sweep(*this, S, sink, &ev);
+  ev.penalty = 0.0;
+  ev.constraints_ok = true;
+  for (int i = 0; i < kNumConstraintClasses; ++i) {
+    const auto c = static_cast<ConstraintClass>(i);
+    const double worst = ev.margins[i].worst;
+    if (worst < 0.0) {
+      ev.constraints_ok = false;
+      const int n = classPriority(c);
+      ev.penalty += settings_.class_weight[i] *
+                    (std::pow(10.0, n + 3) + std::pow(10.0, n) * (-worst / classScale(c)));
+    }
+  }
+  Eigen::Vector4d e;
+  JumpModelAccess::targetErrors(*this, S, e, ev.predicted);
+  ev.predicted.min_obstacle_clearance =
+      task_.obstacle ? ev.margins[static_cast<int>(ConstraintClass::ObstacleClearance)].worst +
+                           settings_.obstacle_margin_m
+                     : kInf;
+  ev.err_dx = e[0];
+  ev.err_height = e[1];
+  ev.err_pitch = e[2];
+  ev.err_landing_pitch = e[3];
+  const double landing_excess =
+      std::max(std::abs(e[3]) - settings_.landing_pitch_tolerance_rad, 0.0);
+  ev.target_cost = std::pow(e[0] / settings_.tolerance_dx_m, 2) +
+                   std::pow(e[1] / settings_.tolerance_height_m, 2) +
+                   std::pow(e[2] / settings_.tolerance_pitch_rad, 2) +
+                   std::pow(landing_excess / settings_.landing_pitch_tolerance_rad, 2) * 100.0;
+  ev.target_ok = std::abs(e[0]) <= settings_.tolerance_dx_m &&
+                 std::abs(e[1]) <= settings_.tolerance_height_m &&
+                 std::abs(e[2]) <= settings_.tolerance_pitch_rad && landing_excess == 0.0;
+  ev.feasible = ev.constraints_ok && ev.target_ok;
+  ev.cost = ev.penalty + ev.target_cost + settings_.energy_weight * ev.energy_j;
+}
+
+bool JumpModel::evaluateConstraints(const Eigen::Ref<const Eigen::VectorXd>& u,
+                                    Eigen::Ref<Eigen::VectorXd> g,
+                                    Eigen::Ref<Eigen::Vector4d> target_residual,
+                                    double* energy_j) const {
+  Solved S;
+  if (!JumpModelAccess::solve(*this, u, S)) return false;
+  int i = 0;
+  const int n = static_cast<int>(g.size());
+  auto sink = [&](ConstraintClass c, double margin, double, int) {
+    if (i < n) g[i] = margin / classScale(c);
+    ++i;
+  };
+  Evaluation ev;
+  JumpModelAccess::sweep(*this, S, sink, &ev);
+  if (i != num_constraint_samples_)
+    throw std::logic_error("JumpModel: constraint count " + std::to_string(i) +
+                           " != " + std::to_string(num_constraint_samples_));
+  Eigen::Vector4d e;
+  JumpOutcome out;
+  JumpModelAccess::targetErrors(*this, S, e, out);
+  target_residual = e;
+  if (energy_j) *energy_j = ev.energy_j;
+  return true;
+}
+
+Eigen::VectorXd JumpModel::decisionVector(const Eigen::Ref<const Eigen::VectorXd>& u) const {
+  Solved S;
+  if (!JumpModelAccess::solve(*this, u, S))
+    throw std::runtime_error("JumpModel::decisionVector: candidate has no valid trajectory");
+  Eigen::VectorXd D(12);
+  D << S.mid.x, S.mid.z, S.mid.pitch, S.takeoff.x, S.takeoff.z, S.takeoff.pitch, S.touchdown.x,
+      S.touchdown.z, S.touchdown.pitch, S.t1, S.t2, S.t3;
+  return D;
+}
+
+JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const {
+  Solved S;
+  if (!JumpModelAccess::solve(*this, u, S))
+    throw std::runtime_error("JumpModel::buildPlan: candidate has no valid trajectory");
+  using model::JointKind;
+  using model::Leg;
+  JumpPlan plan;
+  plan.mode = task_.mode;
+  plan.t1 = S.t1;
+  plan.t2 = S.t2;
+  plan.t3 = S.t3;
+  {
+    ForcePhase p1;
+    p1.t_start = 0.0;
+    p1.t_end = S.t1;
+    p1.hind = {toPolynomial(S.fHx1), toPolynomial(S.fHz1)};
+    p1.front = {toPolynomial(S.fFx1), toPolynomial(S.fFz1)};
+    plan.force_phases.push_back(p1);
+    if (S.two_step) {
+      ForcePhase p2;
+      p2.t_start = S.t1;
+      p2.t_end = S.t2;
+      p2.hind = {toPolynomial(S.fHx2), toPolynomial(S.fHz2)};
+      p2.front = {Polynomial{{0.0}}, Polynomial{{0.0}}};
+      plan.force_phases.push_back(p2);
+    }
+  }
+  plan.initial = initial_;
+  plan.q_initial = init_input_.q;
+  plan.q_landing = init_input_.q;
+  for (const Leg leg : model::kLegs) {
+    plan.q_landing[model::jointIndex(leg, JointKind::HFE)] = q_landing_[0];
+    plan.q_landing[model::jointIndex(leg, JointKind::KFE)] = q_landing_[1];
+  }
+  plan.dt = settings_.output_dt_s;
+  const int N = static_cast<int>(std::ceil(S.t3 / plan.dt - 1e-9)) + 1;
+  plan.centroidal.resize(N);
+  plan.q.setZero(N, model::kNumJoints);
+  plan.qd.setZero(N, model::kNumJoints);
+  plan.tau.setZero(N, model::kNumJoints);
+
+  Sample smp;
+  Eigen::Vector2d q_to[2], wheel_to;
+  for (int k = 0; k < N; ++k) {
+    const double t = std::min(k * plan.dt, S.t3);
+    std::array<Eigen::Vector2d, 2> q, qd;
+    std::array<double, 2> wheel_rate{}, wheel_tau{}, haa_fz{};
+    PlanarState s;
+    if (t <= S.t2) {
+      const bool phase2 = S.two_step && t > S.t1;
+      JumpModelAccess::contactSample(*this, S, t, smp, phase2);
+      s = smp.s;
+      int i = 0;
+      for (const PairSample* p : {&smp.hind, &smp.front}) {
+        q[i] = p->q;
+        qd[i] = p->contact ? p->qd : Eigen::Vector2d::Zero();
+        wheel_rate[i] = p->wheel_rate;
+        wheel_tau[i] = p->contact ? p->wheel_tau : 0.0;
+        haa_fz[i] = p->contact ? p->haa_fz : 0.0;
+        ++i;
+      }
+      for (int pair = 0; pair < 2; ++pair) {
+        const PairSample& p = pair == 0 ? smp.hind : smp.front;
+        for (const Leg leg : model::kLegs) {
+          if ((pair == 0) == model::isFront(leg)) continue;
+          plan.tau(k, model::jointIndex(leg, JointKind::HFE)) = p.contact ? p.tau[0] : 0.0;
+          plan.tau(k, model::jointIndex(leg, JointKind::KFE)) = p.contact ? p.tau[1] : 0.0;
+        }
+      }
+      q_to[0] = smp.hind.q;
+      q_to[1] = smp.front.q;
+      wheel_to = Eigen::Vector2d(smp.hind.wheel_rate, smp.front.wheel_rate);
+    } else {
+      s = JumpModelAccess::ballisticG(S.takeoff, t - S.t2, settings_.gravity);
+      const double xi = (t - S.t2) / (settings_.flight_blend_fraction * S.Tf);
+      for (int pair = 0; pair < 2; ++pair) {
+        q[pair] = JumpModelAccess::flightPosture(*this, S, q_to[pair], t, &qd[pair]);
+        // Wheels spin towards the ground speed they will meet at touchdown.
+        wheel_rate[pair] =
+            wheel_to[pair] + (s.vx / wheel_radius_ - wheel_to[pair]) * smoothstep(xi);
+      }
+    }
+    plan.centroidal[k] = s;
+    for (const Leg leg : model::kLegs) {
+      const int pair = model::isFront(leg) ? 1 : 0;
+      const int haa = model::jointIndex(leg, JointKind::HAA);
+      const double lever =
+          robot_.legGeometry(leg).p_HT.y() + robot_.legGeometry(leg).wheel_lateral_offset;
+      plan.q(k, haa) = init_input_.q[haa];
+      plan.tau(k, haa) = -lever * haa_fz[pair];
+      plan.q(k, haa + 1) = q[pair][0];
+      plan.q(k, haa + 2) = q[pair][1];
+      plan.qd(k, haa + 1) = qd[pair][0];
+      plan.qd(k, haa + 2) = qd[pair][1];
+      plan.qd(k, haa + 3) = wheel_rate[pair];
+      plan.tau(k, haa + 3) = wheel_tau[pair];
+      plan.q(k, haa + 3) =
+          k == 0 ? init_input_.q[haa + 3]
+                 : plan.q(k - 1, haa + 3) + 0.5 * (plan.qd(k - 1, haa + 3) + wheel_rate[pair]) *
+                                                (t - std::min((k - 1) * plan.dt, S.t3));
+    }
+  }
+  plan.decision = decisionVector(u);
+  Evaluation ev;
+  evaluate(u, ev);
+  plan.predicted = ev.predicted;
+  return plan;
+}
+
+}  // namespace wj::planner

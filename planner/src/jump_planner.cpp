@@ -1,0 +1,191 @@
+#include "planner/jump_planner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace wj::planner {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// The DE's view of the jump model: one Evaluation per worker thread.
+class JumpProblem final : public de::Problem {
+ public:
+  explicit JumpProblem(const JumpModel& model) : model_(model) {}
+  int dimension() const override { return model_.dimension(); }
+  Eigen::VectorXd lowerBounds() const override { return model_.lowerBounds(); }
+  Eigen::VectorXd upperBounds() const override { return model_.upperBounds(); }
+  bool isThreadSafe() const override { return true; }
+
+  struct Work final : de::Workspace {
+    Evaluation ev;
+  };
+  std::unique_ptr<de::Workspace> createWorkspace() const override {
+    return std::make_unique<Work>();
+  }
+  de::Fitness evaluate(const Eigen::Ref<const Eigen::VectorXd>& x,
+                       de::Workspace& ws) const override {
+    auto& ev = static_cast<Work&>(ws).ev;
+    model_.evaluate(x, ev);
+    return {ev.cost, ev.feasible};
+  }
+
+ private:
+  const JumpModel& model_;
+};
+
+std::vector<ConstraintClass> bindingClasses(const Evaluation& ev) {
+  std::vector<std::pair<int, ConstraintClass>> v;
+  for (int i = 0; i < kNumConstraintClasses; ++i) {
+    const auto c = static_cast<ConstraintClass>(i);
+    if (ev.margins[i].worst < 0.0) v.emplace_back(JumpModel::classPriority(c), c);
+  }
+  if (v.empty() && !ev.target_ok) {
+    // Constraints hold but the target is missed: the active ones are what stops it.
+    for (int i = 0; i < kNumConstraintClasses; ++i) {
+      const auto c = static_cast<ConstraintClass>(i);
+      if (ev.margins[i].worst / JumpModel::classScale(c) < 0.05)
+        v.emplace_back(JumpModel::classPriority(c), c);
+    }
+  }
+  std::sort(v.begin(), v.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<ConstraintClass> out;
+  for (const auto& [_, c] : v) out.push_back(c);
+  return out;
+}
+
+std::string summarize(const Evaluation& ev, const std::vector<ConstraintClass>& binding) {
+  std::ostringstream ss;
+  if (ev.feasible) {
+    ss << "feasible: all constraints hold and the target is met";
+    return ss.str();
+  }
+  if (!ev.valid) return "infeasible: no valid trajectory found";
+  ss << "infeasible: ";
+  if (!ev.constraints_ok) {
+    ss << "violated";
+  } else {
+    ss << "target missed (dx " << ev.err_dx << " m, height " << ev.err_height << " m, pitch "
+       << ev.err_pitch << " rad); binding";
+  }
+  for (std::size_t i = 0; i < binding.size(); ++i) {
+    const auto& m = ev.margins[static_cast<int>(binding[i])];
+    ss << (i ? ", " : " ") << toString(binding[i]) << " (margin " << m.worst << " "
+       << unitOf(binding[i]) << " at t=" << m.t << " s)";
+  }
+  return ss.str();
+}
+
+}  // namespace
+
+const char* toString(PolishOutcome o) {
+  switch (o) {
+    case PolishOutcome::NotRun:
+      return "not_run";
+    case PolishOutcome::Improved:
+      return "improved";
+    case PolishOutcome::Rejected:
+      return "rejected";
+    case PolishOutcome::Failed:
+      return "failed";
+  }
+  return "?";
+}
+
+JumpPlanner::JumpPlanner(model::RobotModel robot, PlannerSettings settings)
+    : robot_(std::move(robot)), settings_(std::move(settings)) {
+  settings_.validate();
+}
+
+Eigen::Matrix<double, model::kNumJoints, 1> JumpPlanner::standPosture() const {
+  Eigen::Matrix<double, model::kNumJoints, 1> q =
+      Eigen::Matrix<double, model::kNumJoints, 1>::Zero();
+  for (const model::Leg leg : model::kLegs) {
+    q[model::jointIndex(leg, model::JointKind::HFE)] = settings_.stand_hfe_rad;
+    q[model::jointIndex(leg, model::JointKind::KFE)] = settings_.stand_kfe_rad;
+  }
+  return q;
+}
+
+PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initial,
+                                const PlanOptions& options) const {
+  const auto t_start = Clock::now();
+  const JumpModel model(robot_, settings_, task, initial);
+  if (options.num_candidates < 1)
+    throw std::invalid_argument("options.num_candidates must be >= 1, got " +
+                                std::to_string(options.num_candidates));
+  if (options.warm_start.size() > 0 && options.warm_start.rows() != kNumDecision)
+    throw std::invalid_argument("options.warm_start must have " + std::to_string(kNumDecision) +
+                                " rows, got " + std::to_string(options.warm_start.rows()));
+
+  de::Settings des = settings_.de;
+  if (options.seed) des.seed = *options.seed;
+  if (options.max_evaluations) des.max_evaluations = *options.max_evaluations;
+  if (options.time_budget_s) des.time_budget_s = *options.time_budget_s;
+  if (options.threads) des.threads = *options.threads;
+  const de::Solver solver(des);
+  const JumpProblem problem(model);
+
+  PlannerResult r;
+  auto t0 = Clock::now();
+  r.de = solver.solve(problem, options.warm_start, options.cancel);
+  r.de_ms = msSince(t0);
+  r.de_cost = r.de.best.cost;
+  r.u = r.de.best_x;
+  model.evaluate(r.u, r.evaluation);
+
+  const bool do_polish = options.polish.value_or(settings_.polish) && r.evaluation.valid &&
+                         settings_.polish_max_iterations > 0;
+  if (do_polish) {
+    t0 = Clock::now();
+    Eigen::VectorXd u_pol;
+    r.polish = polishWithIpopt(model, r.u, u_pol, &r.polish_iterations);
+    if (r.polish != PolishOutcome::Failed) {
+      Evaluation ev;
+      model.evaluate(u_pol, ev);
+      // The polish never worsens the result: keep its point only if the cost drops and it is
+      // feasible whenever the DE's point was.
+      const bool better = ev.cost < r.evaluation.cost && (ev.feasible || !r.evaluation.feasible);
+      if (better) {
+        r.u = u_pol;
+        r.evaluation = ev;
+        r.polish = PolishOutcome::Improved;
+      } else {
+        r.polish = PolishOutcome::Rejected;
+      }
+    }
+    r.polish_ms = msSince(t0);
+  }
+  r.final_cost = r.evaluation.cost;
+
+  // Distinct candidates for verification: the best, then the DE population in cost order,
+  // skipping points closer than 1e-3 of the box (normalised) to one already taken.
+  const Eigen::VectorXd range = (model.upperBounds() - model.lowerBounds()).cwiseMax(1e-12);
+  r.candidates.push_back({r.u, r.evaluation});
+  for (int j = 0;
+       j < r.de.population.cols() && static_cast<int>(r.candidates.size()) < options.num_candidates;
+       ++j) {
+    const Eigen::VectorXd x = r.de.population.col(j);
+    bool distinct = true;
+    for (const auto& c : r.candidates)
+      if (((x - c.u).cwiseQuotient(range)).norm() < 1e-3) distinct = false;
+    if (!distinct) continue;
+    Candidate c{x, {}};
+    model.evaluate(x, c.evaluation);
+    if (c.evaluation.valid) r.candidates.push_back(std::move(c));
+  }
+
+  r.binding = bindingClasses(r.evaluation);
+  r.summary = summarize(r.evaluation, r.binding);
+  if (r.evaluation.valid) r.plan = model.buildPlan(r.u);
+  r.total_ms = msSince(t_start);
+  return r;
+}
+
+}  // namespace wj::planner

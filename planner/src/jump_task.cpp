@@ -1,0 +1,47 @@
+#include "planner/jump_task.h"
+
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+namespace wj::planner {
+
+namespace {
+
+void requireRange(const std::string& field, double value, double lo, double hi) {
+  if (!std::isfinite(value) || value < lo || value > hi) {
+    std::ostringstream ss;
+    ss << field << " must be finite and in [" << lo << ", " << hi << "], got " << value;
+    throw std::invalid_argument(ss.str());
+  }
+}
+
+}  // namespace
+
+void JumpTask::validate() const {
+  requireRange("task.target.dx", target.dx, -3.0, 5.0);
+  requireRange("task.target.height", target.height, 0.1, 1.5);
+  requireRange("task.target.pitch_change", target.pitch_change, -7.0, 7.0);
+  if (obstacle) {
+    requireRange("task.obstacle.x_min", obstacle->x_min, -5.0, 5.0);
+    requireRange("task.obstacle.x_max", obstacle->x_max, obstacle->x_min + 1e-3, 6.0);
+    requireRange("task.obstacle.height", obstacle->height, 1e-3, 1.0);
+  }
+}
+
+void InitialState::validate(const model::RobotModel& robot) const {
+  requireRange("initial.v0", v0, -1.0, 4.0);
+  requireRange("initial.pitch", pitch, -0.5, 0.5);
+  requireRange("initial.pitch_rate", pitch_rate, -3.0, 3.0);
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    const auto& j = robot.joints()[i];
+    if (j.continuous) {
+      if (!std::isfinite(q[i]))
+        throw std::invalid_argument("initial.q[" + j.name + "] must be finite");
+      continue;
+    }
+    requireRange("initial.q[" + j.name + "]", q[i], j.lower_rad, j.upper_rad);
+  }
+}
+
+}  // namespace wj::planner

@@ -1,0 +1,51 @@
+#include "planner/presets.h"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace wj::planner {
+
+std::vector<std::string> presetNames() {
+  return {"forward", "vertical", "backflip"};
+}
+
+double comHeightForBaseHeight(const model::RobotModel& robot, const Eigen::VectorXd& q,
+                              double base_height) {
+  return base_height + robot.calcCompositeInertia(q).com.z();
+}
+
+Scenario makePreset(const JumpPlanner& planner, const std::string& name, std::optional<double> v0) {
+  const auto& s = planner.settings();
+  Scenario sc;
+  sc.name = name;
+  sc.initial.q = planner.standPosture();
+  Eigen::VectorXd q_land = sc.initial.q;
+  for (const model::Leg leg : model::kLegs) {
+    q_land[model::jointIndex(leg, model::JointKind::HFE)] = s.landing_hfe_rad;
+    q_land[model::jointIndex(leg, model::JointKind::KFE)] = s.landing_kfe_rad;
+  }
+  const double z_land = JumpModel::standingComHeight(planner.robot(), q_land);
+  if (name == "forward") {
+    // Paper Sec. IV-B: run-up at 3 m/s, over a 0.25 m wall, landing upright.
+    sc.initial.v0 = v0.value_or(3.0);
+    sc.task.mode = TakeoffMode::Simultaneous;
+    sc.task.obstacle = BoxObstacle{1.2, 1.3, 0.25};
+    sc.task.target = {2.1, z_land, 0.0, TargetEvent::Touchdown};
+  } else if (name == "vertical") {
+    // Paper Sec. V-B: target base apex 0.7 m from standing (hardware reached 0.5 m).
+    sc.initial.v0 = v0.value_or(0.0);
+    sc.task.mode = TakeoffMode::Simultaneous;
+    sc.task.target = {0.0, comHeightForBaseHeight(planner.robot(), q_land, 0.7), 0.0,
+                      TargetEvent::Apex};
+  } else if (name == "backflip") {
+    // Paper Sec. IV-B: a full backward rotation landing about 0.55 m behind, two-step take-off.
+    sc.initial.v0 = v0.value_or(0.0);
+    sc.task.mode = TakeoffMode::TwoStep;
+    sc.task.target = {-0.55, z_land, 2.0 * M_PI, TargetEvent::Touchdown};
+  } else {
+    throw std::invalid_argument("preset '" + name + "' is not one of forward, vertical, backflip");
+  }
+  return sc;
+}
+
+}  // namespace wj::planner
