@@ -1,0 +1,373 @@
+// The planar jump model against closed forms and direct integration, its constraint
+// evaluators on hand-made cases, and the planner's determinism, polish and input checks.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "planner/jump_model.h"
+#include "planner/jump_planner.h"
+#include "planner/presets.h"
+
+namespace wj::planner {
+namespace {
+
+using model::JointKind;
+using model::Leg;
+
+const model::RobotModel& robot() {
+  static const model::RobotModel r = model::RobotModel::loadDefault();
+  return r;
+}
+
+JumpPlanner makePlanner(PlannerSettings s = {}) {
+  return JumpPlanner(robot(), s);
+}
+
+// A candidate in the middle of the box, with a healthy upward take-off.
+Eigen::VectorXd nominalU(const JumpModel& m) {
+  Eigen::VectorXd u = 0.5 * (m.lowerBounds() + m.upperBounds());
+  u[kT1] = 0.25;
+  u[kTakeoffDz] = 0.08;
+  u[kTakeoffVz] = 2.0;
+  u[kTakeoffDvx] = 0.0;
+  u[kTakeoffDx] = 0.0;
+  u[kTakeoffDpitch] = 0.05;
+  u[kTakeoffRate] = 0.2;
+  if (m.task().mode == TakeoffMode::TwoStep) {
+    u[kT1] = 0.2;
+    u[kT2MinusT1] = 0.1;
+    u[kMidDz] = 0.0;
+    u[kMidDx] = 0.0;
+    u[kMidDpitch] = 0.0;
+  }
+  return u;
+}
+
+// Integrates the planar rigid body with the plan's force polynomials applied at the wheel
+// contacts, whose positions come from the plan's joint angles through forward kinematics:
+// an independent check of the linear solve, the kinematics and the closed-form trajectory.
+PlanarState integrate(const JumpPlan& plan, const JumpModel& m, double t_end) {
+  const Eigen::VectorXd q0 = plan.q_initial;
+  const model::Inertia inertia = robot().calcCompositeInertia(q0);
+  const PlanarLeg leg{robot().legGeometry(Leg::LF).thigh_length,
+                      robot().legGeometry(Leg::LF).shank_length};
+  auto hipRel = [&](Leg l) {
+    const auto& g = robot().legGeometry(l);
+    const Eigen::Vector3d h = g.p_BH + g.p_HT - inertia.com;
+    return Eigen::Vector2d(h.x(), h.z());
+  };
+  const Eigen::Vector2d hip_h = hipRel(Leg::LH), hip_f = hipRel(Leg::LF);
+  auto jointsAt = [&](double t, Leg l) {
+    const double k = std::clamp(t / plan.dt, 0.0, plan.q.rows() - 1.0);
+    const int k0 = std::min(static_cast<int>(k), static_cast<int>(plan.q.rows()) - 2);
+    const double a = k - k0;
+    const int j = model::jointIndex(l, JointKind::HFE);
+    return Eigen::Vector2d((1 - a) * plan.q(k0, j) + a * plan.q(k0 + 1, j),
+                           (1 - a) * plan.q(k0, j + 1) + a * plan.q(k0 + 1, j + 1));
+  };
+  auto accel = [&](double t, const Eigen::Matrix<double, 6, 1>& y) {
+    Eigen::Vector2d fh = Eigen::Vector2d::Zero(), ff = Eigen::Vector2d::Zero();
+    for (const auto& ph : plan.force_phases)
+      if (t >= ph.t_start && t <= ph.t_end) {
+        const double tau = t - ph.t_start;
+        fh = {ph.hind.fx(tau), ph.hind.fz(tau)};
+        ff = {ph.front.fx(tau), ph.front.fz(tau)};
+        break;
+      }
+    if (t > plan.t2) fh = ff = Eigen::Vector2d::Zero();
+    const double c = std::cos(y[2]), s = std::sin(y[2]);
+    auto axleX = [&](const Eigen::Vector2d& hip, Leg l) {
+      const Eigen::Vector2d b = hip + leg.forward(jointsAt(t, l));
+      return y[0] + c * b.x() - s * b.y();
+    };
+    const double moment = (axleX(hip_h, Leg::LH) - y[0]) * fh.y() +
+                          (axleX(hip_f, Leg::LF) - y[0]) * ff.y() + y[1] * (fh.x() + ff.x());
+    Eigen::Matrix<double, 6, 1> d;
+    d << y[3], y[4], y[5], (fh.x() + ff.x()) / m.mass(),
+        (fh.y() + ff.y()) / m.mass() - m.settings().gravity, moment / m.pitchInertia();
+    return d;
+  };
+  const PlanarState& s0 = plan.initial;
+  Eigen::Matrix<double, 6, 1> y;
+  y << s0.x, s0.z, s0.pitch, s0.vx, s0.vz, s0.pitch_rate;
+  const int n = 20000;
+  const double h = t_end / n;
+  for (int i = 0; i < n; ++i) {
+    const double t = i * h;
+    const auto k1 = accel(t, y), k2 = accel(t + h / 2, y + h / 2 * k1),
+               k3 = accel(t + h / 2, y + h / 2 * k2), k4 = accel(t + h, y + h * k3);
+    y += h / 6 * (k1 + 2 * k2 + 2 * k3 + k4);
+  }
+  return {y[0], y[1], y[2], y[3], y[4], y[5]};
+}
+
+class DirectIntegration : public ::testing::TestWithParam<TakeoffMode> {};
+
+TEST_P(DirectIntegration, ForcePolynomialsReproduceTheSampledStates) {
+  const JumpPlanner planner = makePlanner();
+  Scenario sc = makePreset(planner, "vertical");
+  sc.initial.v0 = 1.0;
+  sc.task.mode = GetParam();
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  // The check needs a candidate whose wheels stay within the legs' reach (the inverse
+  // kinematics projects unreachable axle positions, which then differ from the model's).
+  PlanOptions o;
+  o.max_evaluations = 3000;
+  o.polish = false;
+  const Eigen::VectorXd u = planner.plan(sc.task, sc.initial, o).u;
+  Evaluation ev;
+  m.evaluate(u, ev);
+  ASSERT_GE(ev.margins[static_cast<int>(ConstraintClass::JointPosition)].worst, 0.0);
+  const JumpPlan plan = m.buildPlan(u);
+  const Eigen::VectorXd D = plan.decision;
+  if (GetParam() == TakeoffMode::TwoStep) {
+    const PlanarState mid = integrate(plan, m, D[9] / 2);
+    EXPECT_NEAR(mid.x, D[0], 2e-4);
+    EXPECT_NEAR(mid.z, D[1], 2e-4);
+    EXPECT_NEAR(mid.pitch, D[2], 2e-3);
+  }
+  const PlanarState to = integrate(plan, m, D[10]);
+  EXPECT_NEAR(to.x, D[3], 2e-4);
+  EXPECT_NEAR(to.z, D[4], 2e-4);
+  EXPECT_NEAR(to.pitch, D[5], 2e-3);
+  EXPECT_NEAR(to.vz, u[kTakeoffVz], 2e-3);
+  const PlanarState td = integrate(plan, m, D[11]);
+  EXPECT_NEAR(td.x, D[6], 1e-3);
+  EXPECT_NEAR(td.z, D[7], 1e-3);
+  EXPECT_NEAR(td.pitch, D[8], 3e-3);
+  EXPECT_NEAR(td.z, m.landingHeight(), 1e-3);  // t3 is the touchdown by construction
+}
+
+INSTANTIATE_TEST_SUITE_P(Modes, DirectIntegration,
+                         ::testing::Values(TakeoffMode::Simultaneous, TakeoffMode::TwoStep));
+
+TEST(JumpModel, ConstantForceTakeoffMatchesItsAnalyticSolution) {
+  const JumpPlanner planner = makePlanner();
+  Scenario sc = makePreset(planner, "vertical");
+  sc.initial.v0 = 0.5;
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  const double T = 0.2, Fx = 40.0, Fz = 500.0, g = m.settings().gravity, M = m.mass();
+  Eigen::VectorXd u = nominalU(m);
+  u[kT1] = T;
+  u[kTakeoffDx] = Fx / M * T * T / 2;  // x(T) - v0 T
+  u[kTakeoffDvx] = Fx / M * T;
+  u[kTakeoffDz] = (Fz / M - g) * T * T / 2;
+  u[kTakeoffVz] = (Fz / M - g) * T;
+  const JumpPlan plan = m.buildPlan(u);
+  ASSERT_EQ(plan.force_phases.size(), 1u);
+  const auto& ph = plan.force_phases[0];
+  for (const double t : {0.0, 0.05, 0.13, T}) {
+    EXPECT_NEAR(ph.hind.fx(t) + ph.front.fx(t), Fx, 1e-6);
+    EXPECT_NEAR(ph.hind.fz(t) + ph.front.fz(t), Fz, 1e-6);
+  }
+}
+
+TEST(JumpModel, BallisticApexAndConservedAngularMomentum) {
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "vertical");
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  const Eigen::VectorXd u = nominalU(m);
+  Evaluation ev;
+  m.evaluate(u, ev);
+  ASSERT_TRUE(ev.valid);
+  const PlanarState& to = ev.predicted.takeoff.state;
+  const double g = m.settings().gravity;
+  EXPECT_NEAR(ev.predicted.apex.state.z, to.z + to.vz * to.vz / (2 * g), 1e-12);
+  EXPECT_NEAR(ev.predicted.apex.t - ev.predicted.takeoff.t, to.vz / g, 1e-12);
+  EXPECT_NEAR(ev.predicted.touchdown.state.z, m.landingHeight(), 1e-9);
+  const JumpPlan plan = m.buildPlan(u);
+  int flight_samples = 0;
+  for (const PlanarState& s : plan.centroidal) {
+    if (s.z > 0 && &s - plan.centroidal.data() > plan.t2 / plan.dt + 1) {
+      ++flight_samples;
+      EXPECT_NEAR(s.pitch_rate, to.pitch_rate, 1e-12);  // no external moment in flight
+      EXPECT_NEAR(s.vx, to.vx, 1e-12);
+    }
+  }
+  EXPECT_GT(flight_samples, 100);
+}
+
+// Hand-made candidates that violate one thing each.
+TEST(JumpModel, ConstraintEvaluatorsOnHandMadeCases) {
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "vertical");
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  auto worst = [&](const Eigen::VectorXd& u, ConstraintClass c) {
+    Evaluation ev;
+    m.evaluate(u, ev);
+    EXPECT_TRUE(ev.valid);
+    return ev.margins[static_cast<int>(c)].worst;
+  };
+  Eigen::VectorXd u = nominalU(m);
+  // A gentle take-off satisfies everything.
+  u[kTakeoffVz] = 1.0;
+  Evaluation ok;
+  m.evaluate(u, ok);
+  EXPECT_TRUE(ok.constraints_ok) << ok.margins[0].worst;
+  // Dipping 3 cm and leaving at 2 m/s within 0.1 s needs the ground to pull at first.
+  Eigen::VectorXd down = u;
+  down[kT1] = 0.1;
+  down[kTakeoffDz] = -0.03;
+  down[kTakeoffVz] = 2.0;
+  EXPECT_LT(worst(down, ConstraintClass::NormalForce), 0.0);
+  // A violent forward acceleration leaves the friction cone and the wheels' envelope.
+  Eigen::VectorXd slide = u;
+  slide[kT1] = 0.1;
+  slide[kTakeoffDvx] = 2.5;
+  slide[kTakeoffDx] = 0.12;
+  EXPECT_LT(worst(slide, ConstraintClass::FrictionCone), 0.0);
+  EXPECT_LT(worst(slide, ConstraintClass::WheelTraction), 0.0);
+  // A very short, very fast push breaks the knee's torque-speed envelope.
+  Eigen::VectorXd fast = u;
+  fast[kT1] = 0.08;
+  fast[kTakeoffVz] = 4.0;
+  fast[kTakeoffDz] = 0.15;
+  EXPECT_LT(worst(fast, ConstraintClass::ActuatorEnvelope), 0.0);
+  // Raising the CoM beyond the legs' reach.
+  Eigen::VectorXd reach = u;
+  reach[kTakeoffDz] = 0.3;
+  EXPECT_LT(worst(reach, ConstraintClass::JointPosition), 0.0);
+  // No obstacle: no obstacle margin at all.
+  EXPECT_TRUE(std::isinf(worst(u, ConstraintClass::ObstacleClearance)));
+}
+
+TEST(JumpModel, ObstacleInTheWayIsReported) {
+  const JumpPlanner planner = makePlanner();
+  Scenario sc = makePreset(planner, "vertical");
+  sc.task.obstacle = BoxObstacle{0.35, 0.45, 0.3};  // right in front of the front wheels
+  sc.initial.v0 = 2.0;
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  Eigen::VectorXd u = nominalU(m);
+  Evaluation ev;
+  m.evaluate(u, ev);
+  ASSERT_TRUE(ev.valid);
+  EXPECT_LT(ev.margins[static_cast<int>(ConstraintClass::ObstacleClearance)].worst, 0.0);
+  EXPECT_LT(ev.predicted.min_obstacle_clearance, 0.0);
+}
+
+TEST(JumpModel, PenaltyFollowsThePrioritizedForm) {
+  // Paper Eq. 10: a violated class n adds W_n (10^(n+3) + 10^n sigma_n).
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "vertical");
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  Eigen::VectorXd u = nominalU(m);
+  u[kT1] = 0.1;
+  u[kTakeoffDz] = -0.03;
+  u[kTakeoffVz] = 2.0;
+  Evaluation ev;
+  m.evaluate(u, ev);
+  double expected = 0.0;
+  for (int i = 0; i < kNumConstraintClasses; ++i) {
+    const auto c = static_cast<ConstraintClass>(i);
+    const double w = ev.margins[i].worst;
+    if (w < 0) {
+      const int n = JumpModel::classPriority(c);
+      expected += std::pow(10.0, n + 3) + std::pow(10.0, n) * (-w / JumpModel::classScale(c));
+    }
+  }
+  EXPECT_GT(expected, 0.0);
+  EXPECT_DOUBLE_EQ(ev.penalty, expected);
+  EXPECT_NEAR(ev.cost, ev.penalty + ev.target_cost + m.settings().energy_weight * ev.energy_j,
+              1e-9 * ev.cost);
+}
+
+TEST(JumpPlanner, VerticalPresetIsFeasibleAndMeetsItsTarget) {
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "vertical");
+  const PlannerResult r = planner.plan(sc.task, sc.initial);
+  EXPECT_TRUE(r.evaluation.feasible) << r.summary;
+  EXPECT_NEAR(r.evaluation.predicted.apex.state.z, sc.task.target.height,
+              planner.settings().tolerance_height_m);
+  EXPECT_LE(r.final_cost, r.de_cost);
+  EXPECT_GE(r.plan.numSamples(), static_cast<int>(r.plan.t3 / 0.002));
+  EXPECT_EQ(r.plan.q.rows(), r.plan.numSamples());
+}
+
+TEST(JumpPlanner, SameSeedSamePlanAtAnyThreadCount) {
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "forward");
+  PlanOptions o;
+  o.seed = 7;
+  o.max_evaluations = 3000;
+  o.polish = false;
+  o.threads = 1;
+  const PlannerResult a = planner.plan(sc.task, sc.initial, o);
+  o.threads = 2;
+  const PlannerResult b = planner.plan(sc.task, sc.initial, o);
+  ASSERT_EQ(a.de.log.size(), b.de.log.size());
+  for (std::size_t i = 0; i < a.de.log.size(); ++i)
+    EXPECT_EQ(a.de.log[i].best_cost, b.de.log[i].best_cost) << "generation " << i;
+  EXPECT_EQ(a.u, b.u);
+  o.seed = 8;
+  const PlannerResult c = planner.plan(sc.task, sc.initial, o);
+  EXPECT_NE(a.u, c.u);
+}
+
+TEST(JumpPlanner, PolishNeverWorsensTheCost) {
+  const JumpPlanner planner = makePlanner();
+  for (const auto& name : presetNames()) {
+    const Scenario sc = makePreset(planner, name);
+    PlanOptions o;
+    o.max_evaluations = 2000;  // a rough DE result leaves room for the polish
+    const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+    EXPECT_LE(r.final_cost, r.de_cost) << name;
+    EXPECT_NE(r.polish, PolishOutcome::NotRun) << name;
+  }
+}
+
+TEST(JumpPlanner, BadArgumentsGiveClearErrors) {
+  const JumpPlanner planner = makePlanner();
+  Scenario sc = makePreset(planner, "vertical");
+  auto expectError = [&](const Scenario& s, const std::string& needle) {
+    try {
+      (void)planner.plan(s.task, s.initial);
+      ADD_FAILURE() << "accepted: " << needle;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  Scenario bad = sc;
+  bad.initial.v0 = std::nan("");
+  expectError(bad, "initial.v0");
+  bad = sc;
+  bad.task.target.height = -0.2;
+  expectError(bad, "task.target.height must be finite and in [0.1, 1.5]");
+  bad = sc;
+  bad.task.obstacle = BoxObstacle{1.0, 0.9, 0.2};
+  expectError(bad, "task.obstacle.x_max");
+  bad = sc;
+  bad.initial.q[model::jointIndex(Leg::RF, JointKind::KFE)] = 0.3;
+  expectError(bad, "initial.q[RF_KFE]");
+  PlanOptions o;
+  o.num_candidates = 0;
+  EXPECT_THROW((void)planner.plan(sc.task, sc.initial, o), std::invalid_argument);
+  o = {};
+  o.warm_start = Eigen::MatrixXd::Zero(3, 2);
+  EXPECT_THROW((void)planner.plan(sc.task, sc.initial, o), std::invalid_argument);
+  PlannerSettings s;
+  s.t1_s = {0.5, 0.2};
+  EXPECT_THROW((void)JumpPlanner(robot(), s), std::invalid_argument);
+}
+
+TEST(PlannerSettings, YamlFailsOnUnknownKeysAndNamesThem) {
+  const PlannerSettings s = PlannerSettings::fromYamlString(
+      "physics: {friction_mu: 0.5}\nde: {seed: 9, strategy: rand1bin}\n"
+      "bounds: {t1_s: [0.1, 0.3]}\n");
+  EXPECT_DOUBLE_EQ(s.friction_mu, 0.5);
+  EXPECT_EQ(s.de.seed, 9u);
+  EXPECT_EQ(s.de.strategy, de::Strategy::Rand1Bin);
+  EXPECT_DOUBLE_EQ(s.t1_s[1], 0.3);
+  try {
+    (void)PlannerSettings::fromYamlString("physics: {fricton_mu: 0.5}\n");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("physics.fricton_mu"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW((void)PlannerSettings::fromYamlString("de: {strategy: best9}\n"),
+               std::runtime_error);
+  EXPECT_THROW((void)PlannerSettings::fromYamlString("physics: {friction_mu: -1}\n"),
+               std::runtime_error);
+}
+
+}  // namespace
+}  // namespace wj::planner
