@@ -1,0 +1,92 @@
+#pragma once
+/// @file Execution of a JumpPlan at the control rate: the joint commands of take-off, flight
+/// and landing, as the robot client will send them to the drives.
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <string_view>
+
+#include "planner/jump_plan.h"
+#include "robot_model/robot_interface.h"
+#include "robot_model/robot_model.h"
+#include "sim/statics.h"
+
+namespace wj::sim {
+
+/// Phase of a jump being executed.
+enum class JumpPhase : std::uint8_t {
+  Takeoff,  ///< t < t2: track the plan's joint references and feedforward torques
+  Flight,   ///< t >= t2 until touchdown: legs move to the landing posture
+  Landing,  ///< after touchdown: impedance posture, wheels braking
+};
+
+/// "takeoff", "flight", "landing".
+std::string_view toString(JumpPhase phase);
+
+/// Gains and timing of the executor. Leg gains apply to HAA, HFE and KFE; wheels always run
+/// with kp = 0 (speed control, paper Sec. II-D).
+struct ExecutorSettings {
+  double takeoff_kp = 150.0;     ///< leg stiffness tracking plan.q in take-off [Nm/rad]
+  double takeoff_kd = 3.0;       ///< leg damping tracking plan.qd in take-off [Nm s/rad]
+  double wheel_kd = 1.0;         ///< wheel speed gain in every phase [Nm s/rad]
+  double flight_kp = 80.0;       ///< leg stiffness towards q_landing in flight [Nm/rad]
+  double flight_kd = 2.0;        ///< leg damping in flight [Nm s/rad]
+  double flight_blend_s = 0.12;  ///< minimum-jerk blend from take-off posture to q_landing [s]
+  double landing_kp = 60.0;      ///< leg stiffness of the landing posture [Nm/rad]
+  double landing_kd = 2.5;       ///< leg damping of the landing posture [Nm s/rad]
+  bool landing_gravity_feedforward = true;  ///< add the standing statics torques of q_landing
+  double landing_wheel_decel_m_s2 = 2.0;    ///< wheel speed reference ramps to 0 at this rate
+  double landing_duration_s = 1.0;          ///< length of the landing phase [s]
+  double airborne_debounce_s = 0.01;        ///< no wheel contact this long counts as airborne [s]
+  double max_flight_overrun_s = 0.3;  ///< land anyway this long after t3 without touchdown [s]
+
+  /// Throws std::invalid_argument naming the field when a value is out of range.
+  void validate() const;
+};
+
+/// What is wrong with a plan's shape (sizes, times, sample period), or "" when it can be run.
+std::string checkPlan(const planner::JumpPlan& plan);
+
+/// Turns a JumpPlan into joint commands, one control period at a time. Phase changes: at
+/// t2 (plan time) to Flight; at the first wheel contact after having been airborne (or
+/// max_flight_overrun_s after t3) to Landing. No allocation in update().
+class PlanExecutor {
+ public:
+  /// Keeps references to `model` and `plan` (they must outlive the executor). Throws
+  /// std::invalid_argument when checkPlan() reports a problem or the settings are invalid.
+  PlanExecutor(const model::RobotModel& model, const planner::JumpPlan& plan,
+               const ExecutorSettings& settings, double gravity_m_s2);
+
+  /// Commands for time `t` [s since the start of take-off], given the latest sensors and
+  /// whether any wheel touches the ground.
+  void update(double t, const model::SensorData& sensors, bool any_wheel_contact,
+              model::JointCommands& out);
+
+  /// Current phase.
+  JumpPhase phase() const { return phase_; }
+  /// True once all wheels have been off the ground for airborne_debounce_s.
+  bool wasAirborne() const { return airborne_; }
+  /// Start of the landing phase [s] (infinity before).
+  double landingStart() const { return landing_start_; }
+  /// True when the landing phase has lasted landing_duration_s.
+  bool finished(double t) const;
+
+ private:
+  // Plan references interpolated linearly at time t.
+  void sample(double t, model::JointCommands& out) const;
+
+  const model::RobotModel& model_;
+  const planner::JumpPlan& plan_;
+  ExecutorSettings settings_;
+  StaticsJointVector landing_feedforward_ = StaticsJointVector::Zero();
+  double wheel_speed_ = 0.0;  // wheel speed reference after take-off [rad/s]
+  StaticsJointVector q_flight_start_ = StaticsJointVector::Zero();
+  JumpPhase phase_ = JumpPhase::Takeoff;
+  bool airborne_ = false;
+  double last_contact_t_ = 0.0;
+  double flight_start_ = 0.0;
+  double landing_start_ = std::numeric_limits<double>::infinity();
+};
+
+}  // namespace wj::sim

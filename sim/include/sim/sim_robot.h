@@ -1,0 +1,107 @@
+#pragma once
+/// @file The robot simulated in Simbody behind the hardware-shaped RobotInterface.
+/// Simbody-free header (pimpl): the Simbody code is compiled as C++17 in wj_sim_simbody.
+
+#include <Eigen/Geometry>
+#include <array>
+#include <memory>
+
+#include "robot_model/robot_interface.h"
+#include "robot_model/robot_model.h"
+#include "sim/settings.h"
+
+namespace wj::sim {
+
+/// A value per actuated joint, jointIndex() order.
+using JointVector = Eigen::Matrix<double, model::kNumJoints, 1>;
+
+/// Contact of one wheel with the terrain (ground plane and boxes), ground truth.
+struct WheelContact {
+  bool in_contact = false;                            ///< any overlap with the terrain
+  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  ///< force of the terrain on the wheel [N]
+  double penetration_m = 0.0;                         ///< deepest overlap [m]
+};
+
+/// The complete simulated state: what tests and the verifier may know and a controller may not.
+struct GroundTruth {
+  double t = 0.0;                                          ///< simulation time [s]
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();  ///< base pose
+  Eigen::Vector3d v_WB = Eigen::Vector3d::Zero();      ///< velocity of the base origin, in W [m/s]
+  Eigen::Vector3d w_WB = Eigen::Vector3d::Zero();      ///< angular velocity of the base, in W
+  Eigen::Vector3d p_WC = Eigen::Vector3d::Zero();      ///< whole-robot centre of mass [m]
+  Eigen::Vector3d v_WC = Eigen::Vector3d::Zero();      ///< its velocity [m/s]
+  JointVector q = JointVector::Zero();                 ///< joint positions [rad]
+  JointVector qd = JointVector::Zero();                ///< joint velocities [rad/s]
+  JointVector tau = JointVector::Zero();               ///< torque the drives apply [Nm]
+  JointVector tau_demand = JointVector::Zero();        ///< PD + feedforward before saturation [Nm]
+  std::array<WheelContact, model::kNumLegs> wheels{};  ///< leg order LF, RF, LH, RH
+  bool base_in_contact = false;  ///< the base touches the terrain (ground or a box)
+  bool legs_in_contact = false;  ///< a thigh, shank or knee touches the terrain
+  /// Smallest signed distance between the robot's collision spheres and any obstacle box
+  /// [m]; negative = penetration; +infinity without obstacles.
+  double obstacle_clearance_m = 0.0;
+};
+
+/// Where and how fast the robot is, for SimRobot::reset().
+struct RobotPlacement {
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();  ///< base pose
+  Eigen::Vector3d v_WB = Eigen::Vector3d::Zero();          ///< base origin velocity, in W [m/s]
+  Eigen::Vector3d w_WB = Eigen::Vector3d::Zero();          ///< base angular velocity, in W [rad/s]
+  JointVector q = JointVector::Zero();                     ///< joint positions [rad]
+  JointVector qd = JointVector::Zero();                    ///< joint velocities [rad/s]
+};
+
+/// Work counters of the integrator since the last reset().
+struct IntegratorStats {
+  long steps_taken = 0;      ///< accepted internal steps
+  long steps_attempted = 0;  ///< including rejected ones
+};
+
+/// The 22-DoF robot (free base + 16 pin joints built from the RobotModel) with compliant
+/// wheel, base and leg contact, drives with PD law and torque-speed envelope, and an IMU.
+/// One SimRobot per thread: instances share nothing, so different instances may run
+/// concurrently; one instance is not thread-safe.
+class SimRobot final : public model::RobotInterface {
+ public:
+  /// Builds the Simbody system from `model` (copied) and places the robot standing still at
+  /// the origin with all joints at zero; call reset() to place it. Throws
+  /// std::invalid_argument if the settings are out of range.
+  SimRobot(const model::RobotModel& model, const SimSettings& settings);
+  ~SimRobot() override;
+  SimRobot(const SimRobot&) = delete;
+  SimRobot& operator=(const SimRobot&) = delete;
+  SimRobot(SimRobot&&) noexcept;
+  SimRobot& operator=(SimRobot&&) noexcept;
+
+  // RobotInterface ---------------------------------------------------------------------------
+  double controlPeriod() const override;
+  void read(model::SensorData& out) override;
+  void write(const model::JointCommands& commands) override;
+  void advance() override;
+
+  // Simulation control and ground truth -------------------------------------------------------
+  /// Sets time to 0, the state to `placement`, commands to zero, the noise generator to its
+  /// seed, and restarts the integrator.
+  void reset(const RobotPlacement& placement);
+  /// Simulation time [s].
+  double time() const;
+  /// The full state at the current time into `out` (contact forces included).
+  void calcGroundTruth(GroundTruth& out) const;
+  /// Whole-robot mass, centre of mass and central inertia as Simbody computes them, in the
+  /// base frame (to compare with RobotModel::calcCompositeInertia).
+  model::Inertia calcCompositeInertia() const;
+  /// Kinetic + gravitational + elastic contact energy [J].
+  double calcMechanicalEnergy() const;
+  /// Work of the integrator since reset().
+  IntegratorStats integratorStats() const;
+  /// The settings the robot was built with.
+  const SimSettings& settings() const;
+  /// The robot description it was built from.
+  const model::RobotModel& model() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace wj::sim

@@ -1,0 +1,204 @@
+#pragma once
+/// @file Verification of a jump plan in the multibody simulation: execute the plan on a
+/// SimRobot at the control rate, measure what the jump really does, and judge it.
+///
+/// Usage:
+///   wj::sim::Verifier verifier(model, settings);
+///   wj::sim::VerificationReport r = verifier.verify(plan, scenario);
+///
+/// Thread safety: Verifier::verify() is const and builds its own Simbody system per call, so
+/// one Verifier may be used from several threads at once (e.g. the best K DE candidates).
+/// Determinism: same model, settings, plan and scenario give the same report, bit for bit.
+
+#include <array>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "planner/jump_plan.h"
+#include "robot_model/robot_model.h"
+#include "sim/plan_executor.h"
+#include "sim/settings.h"
+#include "sim/sim_robot.h"
+#include "sim/telemetry.h"
+
+namespace wj::sim {
+
+/// Why a verification failed.
+enum class FailureReason : std::uint8_t {
+  InvalidPlan,          ///< the plan's arrays or times are malformed
+  InvalidInitialState,  ///< the initial CoM height does not put the wheels on the terrain
+  SimulationError,      ///< the integrator failed
+  NoTakeoff,            ///< the wheels never left the ground
+  NoTouchdown,          ///< the robot did not land in time
+  TorqueLimit,          ///< a drive demanded more than its envelope in take-off or flight
+  SpeedLimit,           ///< a joint turned faster than its no-load speed
+  JointLimit,           ///< a joint left its URDF position range
+  ObstacleCollision,    ///< the robot touched an obstacle box
+  BaseContact,          ///< the base touched the terrain
+  LegContact,           ///< a thigh, shank or knee touched the terrain
+  NotUpright,           ///< pitch or roll out of bounds after landing
+  BaseHeight,           ///< base height out of bounds after landing
+  NotSettled,           ///< still rotating after landing
+  TargetMissed,         ///< measured outcome too far from the plan's prediction
+};
+/// Number of FailureReason values.
+inline constexpr int kNumFailureReasons = 15;
+/// Stable lower-case name, e.g. "torque_limit".
+std::string_view toString(FailureReason reason);
+
+/// A set of FailureReason (a bit set; no allocation).
+class FailureSet {
+ public:
+  /// Adds `reason`.
+  void insert(FailureReason reason) { bits_ |= bit(reason); }
+  /// True if `reason` is in the set.
+  bool contains(FailureReason reason) const { return (bits_ & bit(reason)) != 0; }
+  /// True if no reason is in the set.
+  bool empty() const { return bits_ == 0; }
+  /// Number of reasons in the set.
+  int size() const;
+  /// The reasons, in enum order.
+  std::vector<FailureReason> toVector() const;
+  /// Same reasons.
+  bool operator==(const FailureSet&) const = default;
+
+ private:
+  static std::uint32_t bit(FailureReason r) { return 1u << static_cast<unsigned>(r); }
+  std::uint32_t bits_ = 0;
+};
+
+/// What a passing jump must satisfy. Bounds on the landing are evaluated at the end of the
+/// run, landing_duration_s after touchdown.
+struct AcceptanceCriteria {
+  /// Largest allowed |PD + feedforward demand| / envelope torque limit at the current speed,
+  /// over take-off and flight (landing impacts may saturate the drives; that is reported only).
+  double max_envelope_ratio = 1.0;
+  double max_speed_ratio = 1.0;             ///< largest allowed |qd| / no-load speed, whole run
+  double joint_limit_tolerance_rad = 0.02;  ///< allowed excursion beyond the URDF limits [rad]
+  double base_height_tolerance_m = 0.06;    ///< |final height - standing height of q_landing| [m]
+  double max_final_pitch_rad = 0.25;        ///< |pitch relative to the ground slope| at the end
+  double max_final_roll_rad = 0.25;         ///< |roll| at the end [rad]
+  double max_final_angular_speed_rad_s = 0.5;  ///< |angular velocity of the base| at the end
+  double initial_gap_tolerance_m = 0.01;  ///< |lowest wheel's distance to terrain| at t = 0 [m]
+  /// |measured - predicted| limits on the outcome; infinity disables the check.
+  double max_apex_height_error_m = std::numeric_limits<double>::infinity();
+  double max_touchdown_dx_error_m = std::numeric_limits<double>::infinity();       ///< [m]
+  double max_touchdown_pitch_error_rad = std::numeric_limits<double>::infinity();  ///< [rad]
+};
+
+/// Everything the verifier needs besides the robot and the plan.
+struct VerifierSettings {
+  SimSettings sim;                ///< physics (its terrain is replaced by the scenario's)
+  ExecutorSettings executor;      ///< gains and timing of the plan execution
+  AcceptanceCriteria acceptance;  ///< pass/fail bounds
+};
+
+/// The world of one verification.
+struct Scenario {
+  std::string name = "flat";          ///< for reports and logs
+  Terrain terrain = Terrain::flat();  ///< replaces VerifierSettings::sim.terrain
+};
+
+/// Where the robot starts: rolling in a posture with its CoM at a planar state.
+struct InitialState {
+  /// CoM in the jump frame J (= W): on a slope, x runs along and z normal to the ground, and
+  /// pitch is relative to the slope.
+  planner::PlanarState com;
+  JointVector q = JointVector::Zero();   ///< joint positions [rad]
+  JointVector qd = JointVector::Zero();  ///< joint velocities [rad/s] (wheels: v0 / r)
+};
+
+/// The initial state the plan assumes: CoM at plan.initial, posture plan.q_initial, leg
+/// speeds from the first plan sample, wheels spinning at plan.initial.vx / r.
+InitialState initialStateFromPlan(const model::RobotModel& model, const planner::JumpPlan& plan);
+
+/// Peak values of one joint over a run.
+struct JointMetrics {
+  double max_abs_torque_nm = 0.0;  ///< applied (saturated) torque
+  double max_abs_demand_nm = 0.0;  ///< PD + feedforward before saturation
+  double max_abs_speed_rad_s = 0.0;
+  double max_envelope_ratio = 0.0;  ///< |demand| / torque limit at speed, whole run
+  double max_speed_ratio = 0.0;     ///< |qd| / no-load speed
+  double min_q_rad = std::numeric_limits<double>::infinity();
+  double max_q_rad = -std::numeric_limits<double>::infinity();
+};
+
+/// Verdict and measurements of one verification.
+struct VerificationReport {
+  bool passed = false;               ///< no failure reason
+  FailureSet failures;               ///< why it failed
+  std::vector<std::string> reasons;  ///< one sentence per failure, in detection order
+
+  /// Measured take-off (last wheel contact before flight), apex (highest CoM in flight) and
+  /// touchdown (first wheel contact after flight), in J; min obstacle clearance over the run.
+  planner::JumpOutcome measured;
+  bool took_off = false;      ///< all wheels left the ground for airborne_debounce_s
+  bool touched_down = false;  ///< a wheel touched the terrain after take-off
+  double max_base_z_m = -std::numeric_limits<double>::infinity();  ///< highest base origin
+
+  std::array<JointMetrics, model::kNumJoints> joints{};  ///< per joint, whole run
+  double max_envelope_ratio = 0.0;  ///< worst demand / limit over take-off and flight
+  int worst_envelope_joint = -1;    ///< jointIndex() of it
+  double max_speed_ratio = 0.0;     ///< worst |qd| / no-load speed, whole run
+
+  bool base_contact = false;    ///< the base touched the terrain at some time
+  bool leg_contact = false;     ///< a thigh, shank or knee touched the terrain
+  bool landed_upright = false;  ///< base height, pitch and roll within bounds at the end
+
+  double initial_ground_gap_m = 0.0;   ///< lowest wheel's distance to the terrain at t = 0
+  double nominal_base_height_m = 0.0;  ///< rigid standing height of q_landing
+  double final_time_s = 0.0;           ///< end of the run [s]
+  double final_base_height_m = 0.0;    ///< base origin above the terrain at the end [m]
+  double final_pitch_rad = 0.0;        ///< relative to the ground slope
+  double final_roll_rad = 0.0;
+  double final_angular_speed_rad_s = 0.0;
+
+  /// Measured minus predicted (plan.predicted); NaN when not measured.
+  double apex_height_error_m = std::numeric_limits<double>::quiet_NaN();
+  double touchdown_dx_error_m = std::numeric_limits<double>::quiet_NaN();       ///< [m]
+  double touchdown_pitch_error_rad = std::numeric_limits<double>::quiet_NaN();  ///< [rad]
+
+  long integrator_steps = 0;  ///< accepted internal steps (work measure)
+};
+
+/// Runs plans on a fresh SimRobot per call and judges them (see the file comment).
+class Verifier {
+ public:
+  /// Copies the model and the settings; throws std::invalid_argument if settings are invalid.
+  Verifier(model::RobotModel model, VerifierSettings settings);
+
+  /// Verifies `plan` from the initial state it assumes (initialStateFromPlan()).
+  VerificationReport verify(const planner::JumpPlan& plan, const Scenario& scenario,
+                            const TelemetryCallback& telemetry = {}) const;
+  /// Verifies `plan` from an explicit initial state.
+  VerificationReport verify(const planner::JumpPlan& plan, const InitialState& initial,
+                            const Scenario& scenario,
+                            const TelemetryCallback& telemetry = {}) const;
+
+  /// The robot description.
+  const model::RobotModel& model() const { return model_; }
+  /// The settings.
+  const VerifierSettings& settings() const { return settings_; }
+
+ private:
+  model::RobotModel model_;
+  VerifierSettings settings_;
+};
+
+/// One-shot form of Verifier::verify().
+VerificationReport verify(const model::RobotModel& model, const VerifierSettings& settings,
+                          const planner::JumpPlan& plan, const InitialState& initial,
+                          const Scenario& scenario);
+
+/// Base pose and twist that put the CoM of posture `initial.q` at `initial.com` on `terrain`
+/// (rigid-body twist; SimRobot-independent). Joint q and qd are copied.
+RobotPlacement calcPlacement(const model::RobotModel& model, const InitialState& initial,
+                             const Terrain& terrain);
+
+/// Signed distance from a point to the terrain surface (ground plane or boxes) [m].
+double calcTerrainDistance(const Terrain& terrain, const Eigen::Vector3d& p_W);
+
+}  // namespace wj::sim

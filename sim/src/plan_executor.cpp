@@ -1,0 +1,171 @@
+#include "sim/plan_executor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace wj::sim {
+
+namespace {
+
+bool isWheel(int joint) {
+  return joint % model::kJointsPerLeg == static_cast<int>(model::JointKind::Wheel);
+}
+
+void requirePositive(double v, const char* name) {
+  if (!(v > 0.0) || !std::isfinite(v))
+    throw std::invalid_argument(std::string("executor settings: ") + name + " must be > 0");
+}
+
+void requireNonNegative(double v, const char* name) {
+  if (!(v >= 0.0) || !std::isfinite(v))
+    throw std::invalid_argument(std::string("executor settings: ") + name + " must be >= 0");
+}
+
+}  // namespace
+
+std::string_view toString(JumpPhase phase) {
+  switch (phase) {
+    case JumpPhase::Takeoff:
+      return "takeoff";
+    case JumpPhase::Flight:
+      return "flight";
+    case JumpPhase::Landing:
+      return "landing";
+  }
+  return "?";
+}
+
+void ExecutorSettings::validate() const {
+  requireNonNegative(takeoff_kp, "takeoff_kp");
+  requireNonNegative(takeoff_kd, "takeoff_kd");
+  requireNonNegative(wheel_kd, "wheel_kd");
+  requireNonNegative(flight_kp, "flight_kp");
+  requireNonNegative(flight_kd, "flight_kd");
+  requirePositive(flight_blend_s, "flight_blend_s");
+  requireNonNegative(landing_kp, "landing_kp");
+  requireNonNegative(landing_kd, "landing_kd");
+  requireNonNegative(landing_wheel_decel_m_s2, "landing_wheel_decel_m_s2");
+  requirePositive(landing_duration_s, "landing_duration_s");
+  requirePositive(airborne_debounce_s, "airborne_debounce_s");
+  requireNonNegative(max_flight_overrun_s, "max_flight_overrun_s");
+}
+
+std::string checkPlan(const planner::JumpPlan& plan) {
+  const int n = plan.numSamples();
+  if (n < 2) return "the plan has fewer than 2 dense samples";
+  if (!(plan.dt > 0.0) || plan.dt > 0.002 + 1e-12)
+    return "the sample period dt must lie in (0, 0.002] s";
+  if (!(0.0 <= plan.t1 && plan.t1 <= plan.t2 && plan.t2 < plan.t3))
+    return "the phase times must satisfy 0 <= t1 <= t2 < t3";
+  for (const auto* m : {&plan.q, &plan.qd, &plan.tau})
+    if (m->rows() != n || m->cols() != model::kNumJoints)
+      return "q, qd and tau must be N x 16 with N = number of centroidal samples";
+  if ((n - 1) * plan.dt < plan.t2 - plan.dt)
+    return "the dense samples end before the take-off time t2";
+  if (!plan.q.allFinite() || !plan.qd.allFinite() || !plan.tau.allFinite() ||
+      !plan.q_initial.allFinite() || !plan.q_landing.allFinite())
+    return "the plan contains non-finite values";
+  return {};
+}
+
+PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPlan& plan,
+                           const ExecutorSettings& settings, double gravity_m_s2)
+    : model_(model), plan_(plan), settings_(settings) {
+  settings_.validate();
+  if (const std::string problem = checkPlan(plan); !problem.empty())
+    throw std::invalid_argument("PlanExecutor: " + problem);
+  if (settings_.landing_gravity_feedforward)
+    landing_feedforward_ = calcStandingStatics(model, plan.q_landing, gravity_m_s2).tau;
+  // Wheel speed after take-off: the plan's wheel speed at t2 (the CoM keeps its horizontal
+  // speed in flight, so the wheels meet the ground at the right speed).
+  const int k2 =
+      std::clamp(static_cast<int>(std::lround(plan.t2 / plan.dt)), 0, plan.numSamples() - 1);
+  double sum = 0.0;
+  for (const model::Leg leg : model::kLegs)
+    sum += plan.qd(k2, model::jointIndex(leg, model::JointKind::Wheel));
+  wheel_speed_ = sum / model::kNumLegs;
+}
+
+void PlanExecutor::sample(double t, model::JointCommands& out) const {
+  const int n = plan_.numSamples();
+  const double s = std::clamp(t / plan_.dt, 0.0, static_cast<double>(n - 1));
+  const int k0 = std::min(static_cast<int>(s), n - 2);
+  const double a = s - k0;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    model::JointCommand& c = out[j];
+    c.q_des = (1.0 - a) * plan_.q(k0, j) + a * plan_.q(k0 + 1, j);
+    c.qd_des = (1.0 - a) * plan_.qd(k0, j) + a * plan_.qd(k0 + 1, j);
+    c.tau_ff = (1.0 - a) * plan_.tau(k0, j) + a * plan_.tau(k0 + 1, j);
+    c.kp = isWheel(j) ? 0.0 : settings_.takeoff_kp;
+    c.kd = isWheel(j) ? settings_.wheel_kd : settings_.takeoff_kd;
+  }
+}
+
+void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_wheel_contact,
+                          model::JointCommands& out) {
+  // Contact bookkeeping and phase changes.
+  if (any_wheel_contact) {
+    if (airborne_ && phase_ == JumpPhase::Flight) {
+      phase_ = JumpPhase::Landing;
+      landing_start_ = t;
+    }
+    last_contact_t_ = t;
+  } else if (t - last_contact_t_ >= settings_.airborne_debounce_s - 1e-12) {
+    airborne_ = true;
+  }
+  if (phase_ == JumpPhase::Takeoff && t >= plan_.t2 - 1e-12) {
+    phase_ = JumpPhase::Flight;
+    flight_start_ = t;
+    for (int j = 0; j < model::kNumJoints; ++j) q_flight_start_[j] = sensors.joints[j].q;
+  }
+  if (phase_ == JumpPhase::Flight && t >= plan_.t3 + settings_.max_flight_overrun_s) {
+    phase_ = JumpPhase::Landing;
+    landing_start_ = t;
+  }
+
+  switch (phase_) {
+    case JumpPhase::Takeoff:
+      sample(t, out);
+      return;
+    case JumpPhase::Flight: {
+      // Minimum-jerk blend s(u) = 10u^3 - 15u^4 + 6u^5 from the take-off posture.
+      const double T = settings_.flight_blend_s;
+      const double u = std::clamp((t - flight_start_) / T, 0.0, 1.0);
+      const double s = u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
+      const double ds = 30.0 * u * u * (1.0 - u) * (1.0 - u) / T;
+      for (int j = 0; j < model::kNumJoints; ++j) {
+        model::JointCommand& c = out[j];
+        if (isWheel(j)) {
+          c = {0.0, wheel_speed_, 0.0, settings_.wheel_kd, 0.0};
+        } else {
+          const double dq = plan_.q_landing[j] - q_flight_start_[j];
+          c = {q_flight_start_[j] + s * dq, ds * dq, settings_.flight_kp, settings_.flight_kd, 0.0};
+        }
+      }
+      return;
+    }
+    case JumpPhase::Landing: {
+      const double r = model_.wheelRadius();
+      const double v0 = std::abs(wheel_speed_) * r;
+      const double v =
+          std::max(0.0, v0 - settings_.landing_wheel_decel_m_s2 * (t - landing_start_));
+      const double wheel_speed = v0 > 0.0 ? wheel_speed_ * v / v0 : 0.0;
+      for (int j = 0; j < model::kNumJoints; ++j) {
+        model::JointCommand& c = out[j];
+        if (isWheel(j))
+          c = {0.0, wheel_speed, 0.0, settings_.wheel_kd, 0.0};
+        else
+          c = {plan_.q_landing[j], 0.0, settings_.landing_kp, settings_.landing_kd,
+               landing_feedforward_[j]};
+      }
+      return;
+    }
+  }
+}
+
+bool PlanExecutor::finished(double t) const {
+  return phase_ == JumpPhase::Landing && t >= landing_start_ + settings_.landing_duration_s - 1e-12;
+}
+
+}  // namespace wj::sim

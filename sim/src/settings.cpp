@@ -1,0 +1,285 @@
+#include "sim/settings.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+namespace wj::sim {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// Lateral and far extent of "unbounded" boxes (walls across the whole world, steps that go on).
+constexpr double kFar = 1.0e3;
+// How deep boxes reach below the ground, so that no seam opens between box and ground.
+constexpr double kBuried = 1.0;
+
+// A YAML map whose keys must all be read exactly once: unknown or missing keys are errors.
+class StrictMap {
+ public:
+  StrictMap(const YAML::Node& node, std::string path, std::string origin)
+      : node_(node), path_(std::move(path)), origin_(std::move(origin)) {
+    if (!node_.IsMap()) fail("expected a map");
+  }
+
+  double number(const std::string& key) { return get(key).as<double>(); }
+  bool flag(const std::string& key) { return get(key).as<bool>(); }
+  std::string text(const std::string& key) { return get(key).as<std::string>(); }
+  std::uint64_t unsignedInt(const std::string& key) { return get(key).as<std::uint64_t>(); }
+  YAML::Node node(const std::string& key) { return get(key); }
+  StrictMap map(const std::string& key) { return StrictMap(get(key), path_ + key + ".", origin_); }
+
+  /// Fails if a key of the map was never read.
+  void finish() const {
+    for (const auto& kv : node_) {
+      const auto key = kv.first.as<std::string>();
+      if (!read_.count(key)) fail("unknown key '" + path_ + key + "'");
+    }
+  }
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::runtime_error("sim settings " + origin_ + ": " + what);
+  }
+
+ private:
+  YAML::Node get(const std::string& key) {
+    const YAML::Node n = node_[key];
+    if (!n) {
+      std::string present;
+      for (const auto& kv : node_)
+        present += (present.empty() ? "" : ", ") + kv.first.as<std::string>();
+      fail("missing key '" + path_ + key + "' (keys present: " + present + ")");
+    }
+    read_.insert(key);
+    return n;
+  }
+
+  YAML::Node node_;
+  std::string path_;
+  std::string origin_;
+  std::set<std::string> read_;
+};
+
+template <class Enum, std::size_t N>
+Enum parseEnum(StrictMap& map, const std::string& key, const std::array<Enum, N>& values) {
+  const std::string text = map.text(key);
+  std::string allowed;
+  for (const Enum v : values) {
+    if (text == toString(v)) return v;
+    allowed += (allowed.empty() ? "" : ", ") + std::string(toString(v));
+  }
+  map.fail("key '" + key + "': '" + text + "' is not one of " + allowed);
+}
+
+Eigen::Vector3d parseVector3(StrictMap& map, const YAML::Node& node, const std::string& key) {
+  if (!node.IsSequence() || node.size() != 3) map.fail("key '" + key + "' needs 3 numbers");
+  return {node[0].as<double>(), node[1].as<double>(), node[2].as<double>()};
+}
+
+void requirePositive(double v, const char* name) {
+  if (!(v > 0.0) || !std::isfinite(v))
+    throw std::invalid_argument(std::string("sim settings: ") + name +
+                                " must be finite and > 0, got " + std::to_string(v));
+}
+
+void requireNonNegative(double v, const char* name) {
+  if (!(v >= 0.0) || !std::isfinite(v))
+    throw std::invalid_argument(std::string("sim settings: ") + name +
+                                " must be finite and >= 0, got " + std::to_string(v));
+}
+
+}  // namespace
+
+//==============================================================================================
+Terrain Terrain::flat() {
+  return Terrain{};
+}
+
+Terrain Terrain::none() {
+  Terrain t;
+  t.has_ground = false;
+  return t;
+}
+
+Terrain Terrain::slope(double slope_rad) {
+  Terrain t;
+  t.slope_rad = slope_rad;
+  return t;
+}
+
+Terrain Terrain::step(double x_m, double height_m) {
+  Terrain t;
+  t.boxes.push_back({{x_m, -kFar, -kBuried}, {x_m + kFar, kFar, height_m}, false});
+  return t;
+}
+
+Terrain Terrain::wall(double x_min_m, double x_max_m, double height_m) {
+  Terrain t;
+  t.boxes.push_back({{x_min_m, -kFar, -kBuried}, {x_max_m, kFar, height_m}, true});
+  return t;
+}
+
+double Terrain::heightAt(double x, double y) const {
+  double h = has_ground ? x * std::tan(slope_rad) : -kInf;
+  for (const Box& b : boxes)
+    if (x >= b.min.x() && x <= b.max.x() && y >= b.min.y() && y <= b.max.y())
+      h = std::max(h, b.max.z());
+  return h;
+}
+
+void SimSettings::validate() const {
+  requirePositive(control_period_s, "control_period_s");
+  requireNonNegative(gravity_m_s2, "gravity_m_s2");
+  requirePositive(contact.stiffness_pa, "contact.stiffness_pa");
+  requireNonNegative(contact.dissipation_s_m, "contact.dissipation_s_m");
+  requireNonNegative(contact.dynamic_friction, "contact.dynamic_friction");
+  requireNonNegative(contact.viscous_friction_s_m, "contact.viscous_friction_s_m");
+  if (contact.static_friction < contact.dynamic_friction)
+    throw std::invalid_argument(
+        "sim settings: contact.static_friction must be >= dynamic_friction");
+  requirePositive(contact.transition_velocity_m_s, "contact.transition_velocity_m_s");
+  requirePositive(contact.base_sphere_radius_m, "contact.base_sphere_radius_m");
+  requirePositive(contact.body_sphere_radius_m, "contact.body_sphere_radius_m");
+  requirePositive(integrator.accuracy, "integrator.accuracy");
+  requirePositive(integrator.max_step_s, "integrator.max_step_s");
+  if (integrator.max_step_s > control_period_s)
+    throw std::invalid_argument(
+        "sim settings: integrator.max_step_s must not exceed "
+        "control_period_s");
+  for (const double sigma :
+       {noise.joint_position_rad, noise.joint_velocity_rad_s, noise.joint_torque_nm,
+        noise.gyro_rad_s, noise.accel_m_s2, noise.orientation_rad})
+    requireNonNegative(sigma, "noise standard deviations");
+  if (!(std::abs(terrain.slope_rad) < 1.2))
+    throw std::invalid_argument("sim settings: terrain.slope_rad must be within +-1.2 rad");
+  for (const Box& b : terrain.boxes)
+    if (!(b.min.array() < b.max.array()).all())
+      throw std::invalid_argument("sim settings: every terrain box needs min < max");
+}
+
+std::string_view toString(WheelShape shape) {
+  switch (shape) {
+    case WheelShape::Sphere:
+      return "sphere";
+    case WheelShape::Ellipsoid:
+      return "ellipsoid";
+  }
+  return "?";
+}
+
+std::string_view toString(IntegratorKind kind) {
+  switch (kind) {
+    case IntegratorKind::SemiExplicitEuler:
+      return "semi_explicit_euler";
+    case IntegratorKind::SemiExplicitEuler2:
+      return "semi_explicit_euler2";
+    case IntegratorKind::RungeKutta3:
+      return "runge_kutta3";
+    case IntegratorKind::RungeKuttaMerson:
+      return "runge_kutta_merson";
+  }
+  return "?";
+}
+
+std::string_view toString(ActuatorUpdate update) {
+  switch (update) {
+    case ActuatorUpdate::Continuous:
+      return "continuous";
+    case ActuatorUpdate::ZeroOrderHold:
+      return "zero_order_hold";
+  }
+  return "?";
+}
+
+SimSettings parseSimSettings(std::string_view yaml_text, const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(std::string(yaml_text));
+  } catch (const std::exception& e) {
+    throw std::runtime_error("sim settings " + origin + ": cannot parse YAML: " + e.what());
+  }
+  SimSettings s;
+  try {
+    StrictMap top(root, "", origin);
+    s.control_period_s = top.number("control_period_s");
+    s.gravity_m_s2 = top.number("gravity_m_s2");
+    s.actuator_update =
+        parseEnum(top, "actuator_update",
+                  std::array{ActuatorUpdate::Continuous, ActuatorUpdate::ZeroOrderHold});
+
+    StrictMap c = top.map("contact");
+    s.contact.stiffness_pa = c.number("stiffness_pa");
+    s.contact.dissipation_s_m = c.number("dissipation_s_m");
+    s.contact.static_friction = c.number("static_friction");
+    s.contact.dynamic_friction = c.number("dynamic_friction");
+    s.contact.viscous_friction_s_m = c.number("viscous_friction_s_m");
+    s.contact.transition_velocity_m_s = c.number("transition_velocity_m_s");
+    s.contact.wheel_shape =
+        parseEnum(c, "wheel_shape", std::array{WheelShape::Sphere, WheelShape::Ellipsoid});
+    s.contact.base_sphere_radius_m = c.number("base_sphere_radius_m");
+    s.contact.body_sphere_radius_m = c.number("body_sphere_radius_m");
+    c.finish();
+
+    StrictMap i = top.map("integrator");
+    s.integrator.kind =
+        parseEnum(i, "kind",
+                  std::array{IntegratorKind::SemiExplicitEuler, IntegratorKind::SemiExplicitEuler2,
+                             IntegratorKind::RungeKutta3, IntegratorKind::RungeKuttaMerson});
+    s.integrator.accuracy = i.number("accuracy");
+    s.integrator.max_step_s = i.number("max_step_s");
+    i.finish();
+
+    StrictMap n = top.map("noise");
+    s.noise.enabled = n.flag("enabled");
+    s.noise.seed = n.unsignedInt("seed");
+    s.noise.joint_position_rad = n.number("joint_position_rad");
+    s.noise.joint_velocity_rad_s = n.number("joint_velocity_rad_s");
+    s.noise.joint_torque_nm = n.number("joint_torque_nm");
+    s.noise.gyro_rad_s = n.number("gyro_rad_s");
+    s.noise.accel_m_s2 = n.number("accel_m_s2");
+    s.noise.orientation_rad = n.number("orientation_rad");
+    n.finish();
+
+    StrictMap t = top.map("terrain");
+    s.terrain.has_ground = t.flag("has_ground");
+    s.terrain.slope_rad = t.number("slope_rad");
+    const YAML::Node boxes = t.node("boxes");
+    if (!boxes.IsSequence()) t.fail("key 'terrain.boxes' must be a list");
+    s.terrain.boxes.clear();
+    for (std::size_t k = 0; k < boxes.size(); ++k) {
+      StrictMap b(boxes[k], "terrain.boxes[" + std::to_string(k) + "].", origin);
+      Box box;
+      box.min = parseVector3(b, b.node("min"), "min");
+      box.max = parseVector3(b, b.node("max"), "max");
+      box.obstacle = b.flag("obstacle");
+      b.finish();
+      s.terrain.boxes.push_back(box);
+    }
+    t.finish();
+    top.finish();
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error("sim settings " + origin + ": bad value: " + e.what());
+  }
+  try {
+    s.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::runtime_error(origin + ": " + e.what());
+  }
+  return s;
+}
+
+SimSettings loadSimSettings(const std::filesystem::path& yaml_file) {
+  std::ifstream in(yaml_file);
+  if (!in) throw std::runtime_error("sim settings: cannot open " + yaml_file.string());
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parseSimSettings(ss.str(), yaml_file.string());
+}
+
+}  // namespace wj::sim

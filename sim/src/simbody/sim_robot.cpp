@@ -1,0 +1,640 @@
+// The robot in Simbody. This translation unit is compiled as C++17 (Simbody 3.7's headers do
+// not compile as C++20 with GCC 12) and is the only place of the sim library that sees Simbody.
+#include "sim/sim_robot.h"
+
+#include <Simbody.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "../contact_law.h"
+
+namespace wj::sim {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+SimTK::Vec3 toVec3(const Eigen::Vector3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
+Eigen::Vector3d toEigen(const SimTK::Vec3& v) {
+  return {v[0], v[1], v[2]};
+}
+SimTK::Rotation toRotation(const Eigen::Matrix3d& R) {
+  const Eigen::Quaterniond q(R);
+  return SimTK::Rotation(SimTK::Quaternion(q.w(), q.x(), q.y(), q.z()));
+}
+Eigen::Matrix3d toEigen(const SimTK::Rotation& R) {
+  Eigen::Matrix3d out;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out(r, c) = R[r][c];
+  return out;
+}
+SimTK::Transform toTransform(const Eigen::Isometry3d& X) {
+  return SimTK::Transform(toRotation(X.linear()), toVec3(X.translation()));
+}
+Eigen::Isometry3d toEigen(const SimTK::Transform& X) {
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.linear() = toEigen(X.R());
+  out.translation() = toEigen(X.p());
+  return out;
+}
+
+// Simbody wants the rotational inertia about the body origin; the model gives it about the CoM.
+SimTK::Body::Rigid makeBody(const model::Inertia& in) {
+  if (!(in.mass > 0.0)) throw std::invalid_argument("SimRobot: every link needs a positive mass");
+  SimTK::Mat33 I_c;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) I_c[r][c] = in.inertia_com(r, c);
+  const SimTK::Vec3 com = toVec3(in.com);
+  const SimTK::Inertia I_o = SimTK::Inertia(I_c).shiftFromMassCenter(com, in.mass);
+  return SimTK::Body::Rigid(SimTK::MassProperties(in.mass, com, I_o));
+}
+
+// Which part of the robot a collision sphere belongs to.
+enum class Part : std::uint8_t { Wheel, Base, Leg };
+
+// Spheres fixed to one link, for contact with boxes and for the clearance metric.
+struct SphereGroup {
+  int link = 0;  // index into RobotModel::links()
+  Part part = Part::Base;
+  int leg = -1;                                            // 0..3 for wheels and legs
+  std::vector<Eigen::Vector3d> centers;                    // in the link frame
+  double radius = 0.0;                                     // of each sphere
+  Eigen::Vector3d bound_center = Eigen::Vector3d::Zero();  // bounding sphere, link frame
+  double bound_radius = 0.0;
+};
+
+void finishBounds(SphereGroup& g) {
+  Eigen::Vector3d lo = g.centers.front(), hi = g.centers.front();
+  for (const auto& c : g.centers) {
+    lo = lo.cwiseMin(c);
+    hi = hi.cwiseMax(c);
+  }
+  g.bound_center = 0.5 * (lo + hi);
+  g.bound_radius = 0.0;
+  for (const auto& c : g.centers)
+    g.bound_radius = std::max(g.bound_radius, (c - g.bound_center).norm());
+  g.bound_radius += g.radius;
+}
+
+// Spheres of `radius` along the segment a-b, spaced at most `radius` apart.
+std::vector<Eigen::Vector3d> segmentSpheres(const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                            double radius) {
+  const int n = std::max(1, static_cast<int>(std::ceil((b - a).norm() / radius)));
+  std::vector<Eigen::Vector3d> out;
+  for (int i = 0; i <= n; ++i) out.push_back(a + (b - a) * (static_cast<double>(i) / n));
+  return out;
+}
+
+// Spheres of `radius` whose union is the box of full size `size` centred at the origin with
+// edges rounded by `radius`: centres on the surface of the box shrunk by `radius`, spaced at
+// most `radius` apart.
+std::vector<Eigen::Vector3d> boxSurfaceSpheres(const Eigen::Vector3d& size, double radius) {
+  const Eigen::Vector3d half =
+      (0.5 * size).cwiseMax(Eigen::Vector3d::Constant(radius)) - Eigen::Vector3d::Constant(radius);
+  int n[3];
+  for (int a = 0; a < 3; ++a)
+    n[a] = std::max(1, static_cast<int>(std::ceil(2.0 * half[a] / radius)));
+  std::vector<Eigen::Vector3d> out;
+  for (int i = 0; i <= n[0]; ++i)
+    for (int j = 0; j <= n[1]; ++j)
+      for (int k = 0; k <= n[2]; ++k) {
+        const bool on_surface = i == 0 || i == n[0] || j == 0 || j == n[1] || k == 0 || k == n[2];
+        if (!on_surface) continue;
+        out.emplace_back(-half.x() + 2.0 * half.x() * i / n[0],
+                         -half.y() + 2.0 * half.y() * j / n[1],
+                         -half.z() + 2.0 * half.z() * k / n[2]);
+      }
+  return out;
+}
+
+}  // namespace
+
+//==============================================================================================
+struct SimRobot::Impl {
+  class DriveElement;
+  class BoxElement;
+
+  Impl(const model::RobotModel& m, const SimSettings& s);
+
+  // Drive torque of joint i at state s (PD law on the current command, clipped by the
+  // envelope); `demand` receives the unclipped value.
+  double driveTorque(const SimTK::State& s, int i, double* demand) const;
+  // Calls f(group, sphere index, contact) for every sphere overlapping a box.
+  template <class F>
+  void forEachBoxContact(const SimTK::State& s, F&& f) const;
+  double calcClearance(const SimTK::State& s) const;
+  const SimTK::State& state() const { return integ->getState(); }
+  // The commands live outside the Simbody state: after changing them, drop the cached forces
+  // and accelerations so that the integrator's next step starts from fresh derivatives.
+  void invalidateForces() {
+    integ->updAdvancedState().invalidateAllCacheAtOrAbove(SimTK::Stage::Dynamics);
+  }
+  void makeIntegrator();
+
+  model::RobotModel model;
+  SimSettings settings;
+  detail::ContactLaw law;
+
+  SimTK::MultibodySystem system;
+  SimTK::SimbodyMatterSubsystem matter;
+  SimTK::GeneralForceSubsystem forces;
+  SimTK::ContactTrackerSubsystem tracker;
+  SimTK::CompliantContactSubsystem contact;
+
+  std::vector<SimTK::MobilizedBody> mobods;  // per RobotModel link
+  std::array<SimTK::MobilizedBody, model::kNumJoints> pins;
+  std::array<int, model::kNumLegs> wheel_link{};
+  std::vector<SphereGroup> groups;
+
+  // Classification of Simbody contact surfaces, filled after realizeTopology().
+  std::vector<Part> surface_part;
+  std::vector<int> surface_leg;
+  std::vector<bool> surface_is_robot;
+
+  model::JointCommands commands{};
+  std::array<double, model::kNumJoints> held_torque{};
+
+  SimTK::State default_state;
+  std::unique_ptr<SimTK::Integrator> integ;
+  long step_count = 0;
+  std::mt19937_64 rng;
+};
+
+//==============================================================================================
+// The drives: one Force::Custom applying tau_i to the mobility of each pin joint.
+class SimRobot::Impl::DriveElement : public SimTK::Force::Custom::Implementation {
+ public:
+  explicit DriveElement(const Impl& impl) : impl_(impl) {}
+  void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>&,
+                 SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector& mobility_forces) const override {
+    for (int i = 0; i < model::kNumJoints; ++i) {
+      const double tau = impl_.settings.actuator_update == ActuatorUpdate::ZeroOrderHold
+                             ? impl_.held_torque[i]
+                             : impl_.driveTorque(s, i, nullptr);
+      impl_.pins[i].applyOneMobilityForce(s, 0, tau, mobility_forces);
+    }
+  }
+  SimTK::Real calcPotentialEnergy(const SimTK::State&) const override { return 0.0; }
+
+ private:
+  const Impl& impl_;
+};
+
+// Contact of the robot's collision spheres with the terrain boxes (Simbody 3.7 has no
+// sphere-brick tracker; see docs/sim.md).
+class SimRobot::Impl::BoxElement : public SimTK::Force::Custom::Implementation {
+ public:
+  explicit BoxElement(const Impl& impl) : impl_(impl) {}
+  void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
+                 SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector&) const override {
+    impl_.forEachBoxContact(s, [&](const SphereGroup& g, const detail::SphereContact& c) {
+      const SimTK::MobilizedBody& mb = impl_.mobods[g.link];
+      const SimTK::Vec3 station = ~mb.getBodyTransform(s) * toVec3(c.point);
+      mb.applyForceToBodyPoint(s, station, toVec3(c.force), body_forces);
+    });
+  }
+  SimTK::Real calcPotentialEnergy(const SimTK::State& s) const override {
+    double pe = 0.0;
+    impl_.forEachBoxContact(
+        s, [&](const SphereGroup&, const detail::SphereContact& c) { pe += c.potential_energy; });
+    return pe;
+  }
+
+ private:
+  const Impl& impl_;
+};
+
+//==============================================================================================
+SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
+    : model(m),
+      settings(s),
+      law(detail::makeContactLaw(s.contact)),
+      matter(system),
+      forces(system),
+      tracker(system),
+      contact(system, tracker),
+      rng(s.noise.seed) {
+  settings.validate();
+  const ContactSettings& cs = settings.contact;
+  const SimTK::ContactMaterial material(cs.stiffness_pa, cs.dissipation_s_m, cs.static_friction,
+                                        cs.dynamic_friction, cs.viscous_friction_s_m);
+  contact.setTransitionVelocity(cs.transition_velocity_m_s);
+  SimTK::Force::Gravity(forces, matter, -SimTK::ZAxis, settings.gravity_m_s2);
+
+  // Ground: a half-space occupies x > 0 of its frame; turn that x to point into the ground.
+  const Terrain& terrain = settings.terrain;
+  if (terrain.has_ground) {
+    const SimTK::Rotation R_GH(SimTK::Pi / 2 - terrain.slope_rad, SimTK::YAxis);
+    matter.updGround().updBody().addContactSurface(
+        SimTK::Transform(R_GH),
+        SimTK::ContactSurface(SimTK::ContactGeometry::HalfSpace(), material));
+  }
+
+  // Multibody tree: free base, then per leg HAA -> HFE -> KFE -> WHEEL pins. A pin turns
+  // about z of its frames, so both frames are turned to put z on the URDF axis.
+  const auto& links = model.links();
+  mobods.resize(links.size());
+  mobods[0] = SimTK::MobilizedBody::Free(matter.updGround(), SimTK::Transform(),
+                                         makeBody(links[0].inertia), SimTK::Transform());
+  // Links were appended parent-before-child by the loader.
+  for (std::size_t li = 1; li < links.size(); ++li) {
+    const model::JointSpec& j = model.joints()[links[li].parent_joint];
+    const SimTK::Rotation R_JA(SimTK::UnitVec3(toVec3(j.axis)), SimTK::ZAxis);
+    const SimTK::Transform X_PF = toTransform(j.X_PJ) * SimTK::Transform(R_JA);
+    const SimTK::Transform X_BM(R_JA);
+    const SimTK::MobilizedBody::Pin pin(mobods[j.parent_link], X_PF, makeBody(links[li].inertia),
+                                        X_BM);
+    mobods[li] = pin;
+    pins[model::jointIndex(j.leg, j.kind)] = pin;
+  }
+
+  // Contact surfaces against the ground (Simbody trackers): wheel, base corners, knees. The
+  // robot's own surfaces form one clique so that they never collide with each other.
+  const SimTK::ContactCliqueId clique = SimTK::ContactSurface::createNewContactClique();
+  const auto surface = [&](const SimTK::ContactGeometry& geo) {
+    return SimTK::ContactSurface(geo, material).joinClique(clique);
+  };
+  const double r = model.wheelRadius();
+  const double base_r = cs.base_sphere_radius_m;
+  const double body_r = cs.body_sphere_radius_m;
+  for (const model::Leg leg : model::kLegs) {
+    const int l = static_cast<int>(leg);
+    const model::JointSpec& wheel = model.joint(leg, model::JointKind::Wheel);
+    const model::JointSpec& knee = model.joint(leg, model::JointKind::KFE);
+    wheel_link[l] = wheel.child_link;
+    // The loader guarantees the wheel axis is y of the wheel link.
+    if (cs.wheel_shape == WheelShape::Ellipsoid)
+      mobods[wheel.child_link].updBody().addContactSurface(
+          SimTK::Transform(),
+          surface(SimTK::ContactGeometry::Ellipsoid(SimTK::Vec3(r, 0.5 * model.wheelWidth(), r))));
+    else
+      mobods[wheel.child_link].updBody().addContactSurface(
+          SimTK::Transform(), surface(SimTK::ContactGeometry::Sphere(r)));
+    mobods[knee.parent_link].updBody().addContactSurface(
+        SimTK::Transform(toVec3(knee.X_PJ.translation())),
+        surface(SimTK::ContactGeometry::Sphere(body_r)));
+  }
+  const Eigen::Vector3d corner =
+      (0.5 * model.baseBoxSize()).cwiseMax(Eigen::Vector3d::Constant(base_r)) -
+      Eigen::Vector3d::Constant(base_r);
+  for (int i = 0; i < 8; ++i) {
+    const Eigen::Vector3d c((i & 1 ? 1 : -1) * corner.x(), (i & 2 ? 1 : -1) * corner.y(),
+                            (i & 4 ? 1 : -1) * corner.z());
+    mobods[0].updBody().addContactSurface(SimTK::Transform(toVec3(c)),
+                                          surface(SimTK::ContactGeometry::Sphere(base_r)));
+  }
+
+  // Sphere groups against the terrain boxes: wheels, base surface, thighs and shanks.
+  {
+    SphereGroup base;
+    base.link = 0;
+    base.part = Part::Base;
+    base.radius = base_r;
+    base.centers = boxSurfaceSpheres(model.baseBoxSize(), base_r);
+    finishBounds(base);
+    groups.push_back(std::move(base));
+  }
+  for (const model::Leg leg : model::kLegs) {
+    const int l = static_cast<int>(leg);
+    const model::JointSpec& knee = model.joint(leg, model::JointKind::KFE);
+    const model::JointSpec& wheel = model.joint(leg, model::JointKind::Wheel);
+    SphereGroup w;
+    w.link = wheel.child_link;
+    w.part = Part::Wheel;
+    w.leg = l;
+    w.radius = r;
+    w.centers = {Eigen::Vector3d::Zero()};
+    finishBounds(w);
+    groups.push_back(std::move(w));
+    for (const model::JointSpec* j : {&knee, &wheel}) {
+      SphereGroup g;
+      g.link = j->parent_link;  // thigh (ends at the knee) or shank (ends at the axle)
+      g.part = Part::Leg;
+      g.leg = l;
+      g.radius = body_r;
+      g.centers = segmentSpheres(Eigen::Vector3d::Zero(), j->X_PJ.translation(), body_r);
+      finishBounds(g);
+      groups.push_back(std::move(g));
+    }
+  }
+
+  SimTK::Force::Custom(forces, new DriveElement(*this));
+  if (!terrain.boxes.empty()) SimTK::Force::Custom(forces, new BoxElement(*this));
+
+  default_state = system.realizeTopology();
+  system.realizeModel(default_state);
+
+  // Classify the Simbody contact surfaces by the body that carries them.
+  surface_part.resize(tracker.getNumSurfaces(), Part::Base);
+  surface_leg.resize(tracker.getNumSurfaces(), -1);
+  surface_is_robot.resize(tracker.getNumSurfaces(), false);
+  for (int i = 0; i < tracker.getNumSurfaces(); ++i) {
+    const SimTK::MobilizedBodyIndex mbx =
+        tracker.getMobilizedBody(SimTK::ContactSurfaceIndex(i)).getMobilizedBodyIndex();
+    if (mbx == SimTK::GroundIndex) continue;
+    surface_is_robot[i] = true;
+    for (int l = 0; l < model::kNumLegs; ++l) {
+      if (mobods[wheel_link[l]].getMobilizedBodyIndex() == mbx) {
+        surface_part[i] = Part::Wheel;
+        surface_leg[i] = l;
+      }
+      const model::JointSpec& knee = model.joint(model::kLegs[l], model::JointKind::KFE);
+      if (mobods[knee.parent_link].getMobilizedBodyIndex() == mbx) {
+        surface_part[i] = Part::Leg;
+        surface_leg[i] = l;
+      }
+    }
+  }
+  makeIntegrator();
+  integ->initialize(default_state);
+}
+
+//==============================================================================================
+void SimRobot::Impl::makeIntegrator() {
+  const IntegratorSettings& is = settings.integrator;
+  switch (is.kind) {
+    case IntegratorKind::SemiExplicitEuler:
+      integ = std::make_unique<SimTK::SemiExplicitEulerIntegrator>(system, is.max_step_s);
+      break;
+    case IntegratorKind::SemiExplicitEuler2:
+      integ = std::make_unique<SimTK::SemiExplicitEuler2Integrator>(system);
+      break;
+    case IntegratorKind::RungeKutta3:
+      integ = std::make_unique<SimTK::RungeKutta3Integrator>(system);
+      break;
+    case IntegratorKind::RungeKuttaMerson:
+      integ = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(system);
+      break;
+  }
+  if (is.kind != IntegratorKind::SemiExplicitEuler) {
+    integ->setAccuracy(is.accuracy);
+    integ->setMaximumStepSize(is.max_step_s);
+  }
+  // Every control instant must be a step boundary: the commands change there.
+  integ->setAllowInterpolation(false);
+}
+
+double SimRobot::Impl::driveTorque(const SimTK::State& s, int i, double* demand) const {
+  const model::JointCommand& c = commands[i];
+  const double q = pins[i].getOneQ(s, 0);
+  const double qd = pins[i].getOneU(s, 0);
+  const double tau = c.kp * (c.q_des - q) + c.kd * (c.qd_des - qd) + c.tau_ff;
+  if (demand) *demand = tau;
+  return model.joints()[i].actuator.saturate(tau, qd);
+}
+
+template <class F>
+void SimRobot::Impl::forEachBoxContact(const SimTK::State& s, F&& f) const {
+  for (const Box& box : settings.terrain.boxes) {
+    for (const SphereGroup& g : groups) {
+      const SimTK::MobilizedBody& mb = mobods[g.link];
+      const SimTK::Transform& X_GB = mb.getBodyTransform(s);
+      const Eigen::Vector3d bound = toEigen(X_GB * toVec3(g.bound_center));
+      if (detail::signedDistance(box, bound).distance >= g.bound_radius) continue;
+      for (const Eigen::Vector3d& center : g.centers) {
+        const Eigen::Vector3d p = toEigen(X_GB * toVec3(center));
+        const detail::BoxDistance d = detail::signedDistance(box, p);
+        const double depth = g.radius - d.distance;
+        if (depth <= 0.0) continue;
+        detail::SphereContact c;
+        c.touching = true;
+        c.depth = depth;
+        // Halfway into the overlap, as Simbody does for two surfaces of equal stiffness.
+        c.point = p - d.normal * (g.radius - 0.5 * depth);
+        if (s.getSystemStage() >= SimTK::Stage::Velocity) {
+          const Eigen::Vector3d v =
+              toEigen(mb.findStationVelocityInGround(s, ~X_GB * toVec3(c.point)));
+          const double rate = -v.dot(d.normal);  // > 0 while the overlap grows
+          const Eigen::Vector3d slip = v + rate * d.normal;
+          c.force = detail::calcContactForce(law, g.radius, depth, rate, d.normal, slip,
+                                             &c.potential_energy);
+        } else {
+          detail::calcContactForce(law, g.radius, depth, 0.0, d.normal, Eigen::Vector3d::Zero(),
+                                   &c.potential_energy);
+        }
+        f(g, c);
+      }
+    }
+  }
+}
+
+double SimRobot::Impl::calcClearance(const SimTK::State& s) const {
+  double best = kInf;
+  for (const Box& box : settings.terrain.boxes) {
+    if (!box.obstacle) continue;
+    for (const SphereGroup& g : groups) {
+      const SimTK::Transform& X_GB = mobods[g.link].getBodyTransform(s);
+      const Eigen::Vector3d bound = toEigen(X_GB * toVec3(g.bound_center));
+      if (detail::signedDistance(box, bound).distance - g.bound_radius >= best) continue;
+      for (const Eigen::Vector3d& center : g.centers) {
+        const Eigen::Vector3d p = toEigen(X_GB * toVec3(center));
+        best = std::min(best, detail::signedDistance(box, p).distance - g.radius);
+      }
+    }
+  }
+  return best;
+}
+
+//==============================================================================================
+SimRobot::SimRobot(const model::RobotModel& model, const SimSettings& settings)
+    : impl_(std::make_unique<Impl>(model, settings)) {}
+SimRobot::~SimRobot() = default;
+SimRobot::SimRobot(SimRobot&&) noexcept = default;
+SimRobot& SimRobot::operator=(SimRobot&&) noexcept = default;
+
+double SimRobot::controlPeriod() const {
+  return impl_->settings.control_period_s;
+}
+
+void SimRobot::read(model::SensorData& out) {
+  Impl& m = *impl_;
+  const SimTK::State& s = m.state();
+  m.system.realize(s, SimTK::Stage::Acceleration);
+  out.t = s.getTime();
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    model::JointMeasurement& j = out.joints[i];
+    j.q = m.pins[i].getOneQ(s, 0);
+    j.qd = m.pins[i].getOneU(s, 0);
+    j.tau = m.settings.actuator_update == ActuatorUpdate::ZeroOrderHold
+                ? m.held_torque[i]
+                : m.driveTorque(s, i, nullptr);
+  }
+  const SimTK::MobilizedBody& base = m.mobods[0];
+  const SimTK::Rotation& R_GB = base.getBodyRotation(s);
+  const SimTK::Quaternion q = R_GB.convertRotationToQuaternion();
+  out.imu.q_WB = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
+  out.imu.omega_B = toEigen(~R_GB * base.getBodyAngularVelocity(s));
+  const SimTK::Vec3 gravity(0, 0, -m.settings.gravity_m_s2);
+  out.imu.accel_B = toEigen(~R_GB * (base.getBodyOriginAcceleration(s) - gravity));
+
+  const NoiseSettings& n = m.settings.noise;
+  if (!n.enabled) return;
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const auto noise = [&](double sigma) { return sigma * normal(m.rng); };
+  for (auto& j : out.joints) {
+    j.q += noise(n.joint_position_rad);
+    j.qd += noise(n.joint_velocity_rad_s);
+    j.tau += noise(n.joint_torque_nm);
+  }
+  for (int a = 0; a < 3; ++a) {
+    out.imu.omega_B[a] += noise(n.gyro_rad_s);
+    out.imu.accel_B[a] += noise(n.accel_m_s2);
+  }
+  const Eigen::Vector3d tilt(noise(n.orientation_rad), noise(n.orientation_rad),
+                             noise(n.orientation_rad));
+  if (tilt.norm() > 0.0)
+    out.imu.q_WB =
+        (out.imu.q_WB * Eigen::Quaterniond(Eigen::AngleAxisd(tilt.norm(), tilt.normalized())))
+            .normalized();
+}
+
+void SimRobot::write(const model::JointCommands& commands) {
+  impl_->commands = commands;
+  if (impl_->settings.actuator_update == ActuatorUpdate::Continuous) impl_->invalidateForces();
+}
+
+void SimRobot::advance() {
+  Impl& m = *impl_;
+  if (m.settings.actuator_update == ActuatorUpdate::ZeroOrderHold) {
+    const SimTK::State& s = m.state();
+    for (int i = 0; i < model::kNumJoints; ++i) m.held_torque[i] = m.driveTorque(s, i, nullptr);
+    m.invalidateForces();
+  }
+  ++m.step_count;
+  const double t_next = static_cast<double>(m.step_count) * m.settings.control_period_s;
+  try {
+    m.integ->stepTo(t_next);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("SimRobot: integration failed at t = " +
+                             std::to_string(m.state().getTime()) + " s: " + e.what());
+  }
+}
+
+void SimRobot::reset(const RobotPlacement& placement) {
+  Impl& m = *impl_;
+  SimTK::State s = m.default_state;
+  s.setTime(0.0);
+  m.mobods[0].setQToFitTransform(s, toTransform(placement.X_WB));
+  m.mobods[0].setUToFitVelocity(s,
+                                SimTK::SpatialVec(toVec3(placement.w_WB), toVec3(placement.v_WB)));
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    m.pins[i].setOneQ(s, 0, placement.q[i]);
+    m.pins[i].setOneU(s, 0, placement.qd[i]);
+  }
+  m.commands = {};
+  m.held_torque = {};
+  m.step_count = 0;
+  m.rng.seed(m.settings.noise.seed);
+  m.makeIntegrator();
+  m.integ->initialize(s);
+}
+
+double SimRobot::time() const {
+  return impl_->state().getTime();
+}
+
+void SimRobot::calcGroundTruth(GroundTruth& out) const {
+  const Impl& m = *impl_;
+  const SimTK::State& s = m.state();
+  m.system.realize(s, SimTK::Stage::Acceleration);
+  const SimTK::MobilizedBody& base = m.mobods[0];
+  out.t = s.getTime();
+  out.X_WB = toEigen(base.getBodyTransform(s));
+  out.v_WB = toEigen(base.getBodyOriginVelocity(s));
+  out.w_WB = toEigen(base.getBodyAngularVelocity(s));
+  out.p_WC = toEigen(m.matter.calcSystemMassCenterLocationInGround(s));
+  out.v_WC = toEigen(m.matter.calcSystemMassCenterVelocityInGround(s));
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    out.q[i] = m.pins[i].getOneQ(s, 0);
+    out.qd[i] = m.pins[i].getOneU(s, 0);
+    double demand = 0.0;
+    const double tau = m.driveTorque(s, i, &demand);
+    out.tau[i] =
+        m.settings.actuator_update == ActuatorUpdate::ZeroOrderHold ? m.held_torque[i] : tau;
+    out.tau_demand[i] = demand;
+  }
+
+  out.wheels = {};
+  out.base_in_contact = false;
+  out.legs_in_contact = false;
+  const auto record = [&](Part part, int leg, const Eigen::Vector3d& force, double depth) {
+    if (part == Part::Wheel) {
+      WheelContact& w = out.wheels[leg];
+      w.in_contact = true;
+      w.force_W += force;
+      w.penetration_m = std::max(w.penetration_m, depth);
+    } else if (part == Part::Base) {
+      out.base_in_contact = true;
+    } else {
+      out.legs_in_contact = true;
+    }
+  };
+  // Ground contacts through Simbody's compliant contact subsystem.
+  const SimTK::ContactSnapshot& active = m.tracker.getActiveContacts(s);
+  for (int k = 0; k < m.contact.getNumContactForces(s); ++k) {
+    const SimTK::ContactForce& f = m.contact.getContactForce(s, k);
+    const SimTK::Contact& c = active.getContactById(f.getContactId());
+    if (c.isEmpty()) continue;
+    double depth = 0.0;
+    if (SimTK::CircularPointContact::isInstance(c))
+      depth = SimTK::CircularPointContact::getAs(c).getDepth();
+    else if (SimTK::EllipticalPointContact::isInstance(c))
+      depth = SimTK::EllipticalPointContact::getAs(c).getDepth();
+    const int s2 = c.getSurface2();
+    const bool robot_is_2 = m.surface_is_robot[s2];
+    const int rs = robot_is_2 ? s2 : static_cast<int>(c.getSurface1());
+    const Eigen::Vector3d force = toEigen(f.getForceOnSurface2()[1]) * (robot_is_2 ? 1.0 : -1.0);
+    record(m.surface_part[rs], m.surface_leg[rs], force, depth);
+  }
+  // Box contacts through the custom force element.
+  m.forEachBoxContact(s, [&](const SphereGroup& g, const detail::SphereContact& c) {
+    record(g.part, g.leg, c.force, c.depth);
+  });
+  out.obstacle_clearance_m = m.calcClearance(s);
+}
+
+model::Inertia SimRobot::calcCompositeInertia() const {
+  const Impl& m = *impl_;
+  const SimTK::State& s = m.state();
+  m.system.realize(s, SimTK::Stage::Position);
+  const Eigen::Isometry3d X_WB = toEigen(m.mobods[0].getBodyTransform(s));
+  model::Inertia out;
+  out.mass = m.matter.calcSystemMass(s);
+  out.com = X_WB.inverse() * toEigen(m.matter.calcSystemMassCenterLocationInGround(s));
+  const SimTK::Mat33 I_G = m.matter.calcSystemCentralInertiaInGround(s).toMat33();
+  Eigen::Matrix3d I;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) I(r, c) = I_G[r][c];
+  out.inertia_com = X_WB.linear().transpose() * I * X_WB.linear();
+  return out;
+}
+
+double SimRobot::calcMechanicalEnergy() const {
+  const Impl& m = *impl_;
+  const SimTK::State& s = m.state();
+  m.system.realize(s, SimTK::Stage::Dynamics);
+  return m.system.calcKineticEnergy(s) + m.system.calcPotentialEnergy(s);
+}
+
+IntegratorStats SimRobot::integratorStats() const {
+  return {impl_->integ->getNumStepsTaken(), impl_->integ->getNumStepsAttempted()};
+}
+
+const SimSettings& SimRobot::settings() const {
+  return impl_->settings;
+}
+
+const model::RobotModel& SimRobot::model() const {
+  return impl_->model;
+}
+
+}  // namespace wj::sim

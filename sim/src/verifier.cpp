@@ -1,0 +1,424 @@
+#include "sim/verifier.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <stdexcept>
+#include <utility>
+
+#include "contact_law.h"
+#include "sim/statics.h"
+
+namespace wj::sim {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kPi = 3.14159265358979323846;
+
+// Nose-up pitch (rotation about -y of the base) in (-pi, pi], unwrapped to be continuous with
+// `previous`.
+double unwrappedPitch(const Eigen::Matrix3d& R_WB, double previous) {
+  const double raw = std::atan2(R_WB(2, 0), R_WB(0, 0));
+  return raw + 2.0 * kPi * std::round((previous - raw) / (2.0 * kPi));
+}
+
+double rollOf(const Eigen::Matrix3d& R_WB) {
+  return std::atan2(R_WB(2, 1), R_WB(2, 2));
+}
+
+// printf-style formatting into a std::string (GCC 12 has no std::format).
+[[gnu::format(printf, 1, 2)]] std::string strf(const char* format, ...) {
+  char buffer[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buffer, sizeof buffer, format, args);
+  va_end(args);
+  return buffer;
+}
+
+planner::JumpEvent makeEvent(const GroundTruth& gt, double pitch) {
+  planner::JumpEvent e;
+  e.t = gt.t;
+  e.state.x = gt.p_WC.x();
+  e.state.z = gt.p_WC.z();
+  e.state.pitch = pitch;
+  e.state.vx = gt.v_WC.x();
+  e.state.vz = gt.v_WC.z();
+  e.state.pitch_rate = -gt.w_WB.y();
+  e.base_z = gt.X_WB.translation().z();
+  return e;
+}
+
+TelemetrySample makeSample(const GroundTruth& gt, JumpPhase phase) {
+  TelemetrySample s;
+  s.t = gt.t;
+  s.phase = phase;
+  s.p_WB = gt.X_WB.translation();
+  s.q_WB = Eigen::Quaterniond(gt.X_WB.linear());
+  s.v_WB = gt.v_WB;
+  s.w_WB = gt.w_WB;
+  s.p_WC = gt.p_WC;
+  s.v_WC = gt.v_WC;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    s.q[j] = gt.q[j];
+    s.qd[j] = gt.qd[j];
+    s.tau[j] = gt.tau[j];
+  }
+  for (int l = 0; l < model::kNumLegs; ++l) s.wheel_force_W[l] = gt.wheels[l].force_W;
+  s.obstacle_clearance_m = gt.obstacle_clearance_m;
+  return s;
+}
+
+// Accumulates the verdict: a reason is recorded once, with the first sentence given for it.
+class Verdict {
+ public:
+  explicit Verdict(VerificationReport& r) : r_(r) {}
+  void fail(FailureReason why, std::string sentence) {
+    if (r_.failures.contains(why)) return;
+    r_.failures.insert(why);
+    r_.reasons.push_back(std::move(sentence));
+  }
+
+ private:
+  VerificationReport& r_;
+};
+
+// The lowest wheel's signed distance to the terrain.
+double wheelGap(const model::RobotModel& model, const RobotPlacement& p, const Terrain& terrain) {
+  const auto centers = calcWheelCenters(model, p.q);
+  double gap = kInf;
+  for (const auto& c : centers)
+    gap = std::min(gap, calcTerrainDistance(terrain, p.X_WB * c) - model.wheelRadius());
+  return gap;
+}
+
+}  // namespace
+
+//==============================================================================================
+std::string_view toString(FailureReason reason) {
+  switch (reason) {
+    case FailureReason::InvalidPlan:
+      return "invalid_plan";
+    case FailureReason::InvalidInitialState:
+      return "invalid_initial_state";
+    case FailureReason::SimulationError:
+      return "simulation_error";
+    case FailureReason::NoTakeoff:
+      return "no_takeoff";
+    case FailureReason::NoTouchdown:
+      return "no_touchdown";
+    case FailureReason::TorqueLimit:
+      return "torque_limit";
+    case FailureReason::SpeedLimit:
+      return "speed_limit";
+    case FailureReason::JointLimit:
+      return "joint_limit";
+    case FailureReason::ObstacleCollision:
+      return "obstacle_collision";
+    case FailureReason::BaseContact:
+      return "base_contact";
+    case FailureReason::LegContact:
+      return "leg_contact";
+    case FailureReason::NotUpright:
+      return "not_upright";
+    case FailureReason::BaseHeight:
+      return "base_height";
+    case FailureReason::NotSettled:
+      return "not_settled";
+    case FailureReason::TargetMissed:
+      return "target_missed";
+  }
+  return "?";
+}
+
+int FailureSet::size() const {
+  return std::popcount(bits_);
+}
+
+std::vector<FailureReason> FailureSet::toVector() const {
+  std::vector<FailureReason> out;
+  for (int i = 0; i < kNumFailureReasons; ++i)
+    if (contains(static_cast<FailureReason>(i))) out.push_back(static_cast<FailureReason>(i));
+  return out;
+}
+
+double calcTerrainDistance(const Terrain& terrain, const Eigen::Vector3d& p_W) {
+  double d = kInf;
+  if (terrain.has_ground) {
+    const Eigen::Vector3d n(-std::sin(terrain.slope_rad), 0.0, std::cos(terrain.slope_rad));
+    d = n.dot(p_W);
+  }
+  for (const Box& b : terrain.boxes) d = std::min(d, detail::signedDistance(b, p_W).distance);
+  return d;
+}
+
+InitialState initialStateFromPlan(const model::RobotModel& model, const planner::JumpPlan& plan) {
+  InitialState s;
+  s.com = plan.initial;
+  s.q = plan.q_initial;
+  if (plan.qd.rows() > 0 && plan.qd.cols() == model::kNumJoints) s.qd = plan.qd.row(0).transpose();
+  for (const model::Leg leg : model::kLegs)
+    s.qd[model::jointIndex(leg, model::JointKind::Wheel)] = plan.initial.vx / model.wheelRadius();
+  return s;
+}
+
+RobotPlacement calcPlacement(const model::RobotModel& model, const InitialState& initial,
+                             const Terrain& terrain) {
+  const double slope = terrain.has_ground ? terrain.slope_rad : 0.0;
+  const Eigen::Vector3d along(std::cos(slope), 0.0, std::sin(slope));
+  const Eigen::Vector3d normal(-std::sin(slope), 0.0, std::cos(slope));
+  RobotPlacement p;
+  p.q = initial.q;
+  p.qd = initial.qd;
+  // Nose-up pitch is a rotation about -y.
+  const Eigen::Matrix3d R_WB =
+      Eigen::AngleAxisd(-(initial.com.pitch + slope), Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d p_BC = model.calcCompositeInertia(initial.q).com;
+  const Eigen::Vector3d p_WC = initial.com.x * along + initial.com.z * normal;
+  p.X_WB.linear() = R_WB;
+  p.X_WB.translation() = p_WC - R_WB * p_BC;
+  p.w_WB = Eigen::Vector3d(0.0, -initial.com.pitch_rate, 0.0);
+  const Eigen::Vector3d v_WC = initial.com.vx * along + initial.com.vz * normal;
+  p.v_WB = v_WC - p.w_WB.cross(R_WB * p_BC);
+  return p;
+}
+
+//==============================================================================================
+Verifier::Verifier(model::RobotModel model, VerifierSettings settings)
+    : model_(std::move(model)), settings_(std::move(settings)) {
+  settings_.sim.validate();
+  settings_.executor.validate();
+}
+
+VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Scenario& scenario,
+                                    const TelemetryCallback& telemetry) const {
+  return verify(plan, initialStateFromPlan(model_, plan), scenario, telemetry);
+}
+
+VerificationReport Verifier::verify(const planner::JumpPlan& plan, const InitialState& initial,
+                                    const Scenario& scenario,
+                                    const TelemetryCallback& telemetry) const {
+  VerificationReport r;
+  Verdict verdict(r);
+  const AcceptanceCriteria& acc = settings_.acceptance;
+  if (const std::string problem = checkPlan(plan); !problem.empty()) {
+    verdict.fail(FailureReason::InvalidPlan, "invalid plan: " + problem);
+    return r;
+  }
+
+  SimSettings sim_settings = settings_.sim;
+  sim_settings.terrain = scenario.terrain;
+  SimRobot robot(model_, sim_settings);
+
+  // Place the robot; then correct the base velocity so that the CoM moves as requested even
+  // when the legs move (a common base velocity offset shifts the CoM velocity by the same).
+  RobotPlacement placement = calcPlacement(model_, initial, scenario.terrain);
+  r.initial_ground_gap_m = wheelGap(model_, placement, scenario.terrain);
+  if (!(std::abs(r.initial_ground_gap_m) <= acc.initial_gap_tolerance_m)) {
+    verdict.fail(FailureReason::InvalidInitialState,
+                 strf("the initial CoM height puts the lowest wheel %.4f m from the "
+                      "terrain (tolerance %.4f m)",
+                      r.initial_ground_gap_m, acc.initial_gap_tolerance_m));
+    return r;
+  }
+  GroundTruth gt;
+  robot.reset(placement);
+  robot.calcGroundTruth(gt);
+  {
+    const double slope = scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0;
+    const Eigen::Vector3d along(std::cos(slope), 0.0, std::sin(slope));
+    const Eigen::Vector3d normal(-std::sin(slope), 0.0, std::cos(slope));
+    const Eigen::Vector3d v_WC = initial.com.vx * along + initial.com.vz * normal;
+    placement.v_WB += v_WC - gt.v_WC;
+  }
+  robot.reset(placement);
+
+  PlanExecutor executor(model_, plan, settings_.executor, sim_settings.gravity_m_s2);
+  const double stop_time = plan.t3 + settings_.executor.max_flight_overrun_s +
+                           settings_.executor.landing_duration_s + 1.0;
+
+  model::SensorData sensors;
+  model::JointCommands commands{};
+  double pitch = 0.0;
+  planner::JumpEvent last_contact;
+  bool checked_phase = true;  // take-off or flight: envelope ratio counts
+  int limit_joint = -1;
+  double limit_time = 0.0;
+  int speed_joint = -1;
+  double speed_time = 0.0;
+  double envelope_time = 0.0;
+  double first_obstacle_contact = kInf;
+  double first_base_contact = kInf, first_leg_contact = kInf;
+  r.measured.min_obstacle_clearance = kInf;
+  for (;;) {
+    robot.read(sensors);
+    robot.calcGroundTruth(gt);
+    const double t = gt.t;
+    pitch = unwrappedPitch(gt.X_WB.linear(), pitch);
+    bool contact = false;
+    for (const auto& w : gt.wheels) contact = contact || w.in_contact;
+
+    // Events: take-off = last contact before the airborne interval, touchdown = first
+    // contact after it, apex = highest CoM in between.
+    if (!executor.wasAirborne() && contact) last_contact = makeEvent(gt, pitch);
+    executor.update(t, sensors, contact, commands);
+    if (executor.wasAirborne() && !r.took_off) {
+      r.took_off = true;
+      r.measured.takeoff = last_contact;
+      r.measured.apex = last_contact;
+    }
+    if (r.took_off && !r.touched_down) {
+      if (contact) {
+        r.touched_down = true;
+        r.measured.touchdown = makeEvent(gt, pitch);
+      } else {
+        if (gt.p_WC.z() > r.measured.apex.state.z) r.measured.apex = makeEvent(gt, pitch);
+        r.max_base_z_m = std::max(r.max_base_z_m, gt.X_WB.translation().z());
+      }
+    }
+    checked_phase = !r.touched_down && executor.phase() != JumpPhase::Landing;
+
+    // Drives and joints.
+    for (int j = 0; j < model::kNumJoints; ++j) {
+      const model::JointSpec& spec = model_.joints()[j];
+      JointMetrics& m = r.joints[j];
+      const double limit = spec.actuator.torqueLimit(gt.qd[j]);
+      const double demand = std::abs(gt.tau_demand[j]);
+      const double ratio = limit > 0.0 ? demand / limit : (demand > 0.0 ? kInf : 0.0);
+      const double speed_ratio = std::abs(gt.qd[j]) / spec.actuator.no_load_speed_rad_s;
+      m.max_abs_torque_nm = std::max(m.max_abs_torque_nm, std::abs(gt.tau[j]));
+      m.max_abs_demand_nm = std::max(m.max_abs_demand_nm, demand);
+      m.max_abs_speed_rad_s = std::max(m.max_abs_speed_rad_s, std::abs(gt.qd[j]));
+      m.max_envelope_ratio = std::max(m.max_envelope_ratio, ratio);
+      m.max_speed_ratio = std::max(m.max_speed_ratio, speed_ratio);
+      m.min_q_rad = std::min(m.min_q_rad, gt.q[j]);
+      m.max_q_rad = std::max(m.max_q_rad, gt.q[j]);
+      if (checked_phase && ratio > r.max_envelope_ratio) {
+        r.max_envelope_ratio = ratio;
+        r.worst_envelope_joint = j;
+        envelope_time = t;
+      }
+      if (speed_ratio > r.max_speed_ratio) {
+        r.max_speed_ratio = speed_ratio;
+        speed_joint = j;
+        speed_time = t;
+      }
+      if (limit_joint < 0 && !spec.continuous &&
+          (gt.q[j] < spec.lower_rad - acc.joint_limit_tolerance_rad ||
+           gt.q[j] > spec.upper_rad + acc.joint_limit_tolerance_rad)) {
+        limit_joint = j;
+        limit_time = t;
+      }
+    }
+    r.measured.min_obstacle_clearance =
+        std::min(r.measured.min_obstacle_clearance, gt.obstacle_clearance_m);
+    if (gt.obstacle_clearance_m < 0.0) first_obstacle_contact = std::min(first_obstacle_contact, t);
+    if (gt.base_in_contact) first_base_contact = std::min(first_base_contact, t);
+    if (gt.legs_in_contact) first_leg_contact = std::min(first_leg_contact, t);
+    if (telemetry) telemetry(makeSample(gt, executor.phase()));
+
+    if (executor.finished(t) || t >= stop_time) break;
+    robot.write(commands);
+    try {
+      robot.advance();
+    } catch (const std::exception& e) {
+      verdict.fail(FailureReason::SimulationError, e.what());
+      break;
+    }
+  }
+  r.integrator_steps = robot.integratorStats().steps_taken;
+
+  // Landing state at the end of the run.
+  const Eigen::Matrix3d R_WB = gt.X_WB.linear();
+  const double slope = scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0;
+  r.final_time_s = gt.t;
+  r.final_base_height_m = calcTerrainDistance(scenario.terrain, gt.X_WB.translation());
+  r.final_pitch_rad = pitch - slope;
+  r.final_roll_rad = rollOf(R_WB);
+  r.final_angular_speed_rad_s = gt.w_WB.norm();
+  r.nominal_base_height_m =
+      calcStandingStatics(model_, plan.q_landing, sim_settings.gravity_m_s2).base_height_m;
+  r.base_contact = first_base_contact < kInf;
+  r.leg_contact = first_leg_contact < kInf;
+
+  // Verdict, most fundamental first.
+  if (!r.took_off)
+    verdict.fail(FailureReason::NoTakeoff, "the wheels never left the ground");
+  else if (!r.touched_down)
+    verdict.fail(FailureReason::NoTouchdown, strf("no touchdown within %.3f s after t3",
+                                                  settings_.executor.max_flight_overrun_s));
+  if (r.max_envelope_ratio > acc.max_envelope_ratio) {
+    const model::JointSpec& j = model_.joints()[r.worst_envelope_joint];
+    verdict.fail(FailureReason::TorqueLimit,
+                 strf("%s demands %.2f x its torque limit at t = %.3f s (allowed "
+                      "%.2f)",
+                      j.name.c_str(), r.max_envelope_ratio, envelope_time, acc.max_envelope_ratio));
+  }
+  if (r.max_speed_ratio > acc.max_speed_ratio)
+    verdict.fail(FailureReason::SpeedLimit,
+                 strf("%s turns at %.2f x its no-load speed at t = %.3f s",
+                      model_.joints()[speed_joint].name.c_str(), r.max_speed_ratio, speed_time));
+  if (limit_joint >= 0)
+    verdict.fail(FailureReason::JointLimit,
+                 strf("%s leaves its position range at t = %.3f s",
+                      model_.joints()[limit_joint].name.c_str(), limit_time));
+  if (first_obstacle_contact < kInf)
+    verdict.fail(FailureReason::ObstacleCollision,
+                 strf("the robot hits the obstacle at t = %.3f s (min clearance "
+                      "%.4f m)",
+                      first_obstacle_contact, r.measured.min_obstacle_clearance));
+  if (r.base_contact)
+    verdict.fail(FailureReason::BaseContact,
+                 strf("the base touches the terrain at t = %.3f s", first_base_contact));
+  if (r.leg_contact)
+    verdict.fail(FailureReason::LegContact,
+                 strf("a leg touches the terrain at t = %.3f s", first_leg_contact));
+  const bool pitch_ok = std::abs(r.final_pitch_rad) <= acc.max_final_pitch_rad;
+  const bool roll_ok = std::abs(r.final_roll_rad) <= acc.max_final_roll_rad;
+  const bool height_ok =
+      std::abs(r.final_base_height_m - r.nominal_base_height_m) <= acc.base_height_tolerance_m;
+  r.landed_upright = r.touched_down && pitch_ok && roll_ok && height_ok && !r.base_contact;
+  if (!pitch_ok || !roll_ok)
+    verdict.fail(
+        FailureReason::NotUpright,
+        strf("at the end pitch is %.3f rad and roll %.3f rad (allowed "
+             "%.3f, %.3f)",
+             r.final_pitch_rad, r.final_roll_rad, acc.max_final_pitch_rad, acc.max_final_roll_rad));
+  if (!height_ok)
+    verdict.fail(FailureReason::BaseHeight,
+                 strf("at the end the base is %.3f m above the terrain, standing "
+                      "height %.3f m +- %.3f m",
+                      r.final_base_height_m, r.nominal_base_height_m, acc.base_height_tolerance_m));
+  if (r.final_angular_speed_rad_s > acc.max_final_angular_speed_rad_s)
+    verdict.fail(FailureReason::NotSettled, strf("at the end the base still turns at %.3f rad/s",
+                                                 r.final_angular_speed_rad_s));
+  if (r.took_off) {
+    r.apex_height_error_m = r.measured.apex.state.z - plan.predicted.apex.state.z;
+    if (std::abs(r.apex_height_error_m) > acc.max_apex_height_error_m)
+      verdict.fail(FailureReason::TargetMissed,
+                   strf("the apex is %+.3f m off the prediction", r.apex_height_error_m));
+  }
+  if (r.touched_down) {
+    r.touchdown_dx_error_m = r.measured.touchdown.state.x - plan.predicted.touchdown.state.x;
+    r.touchdown_pitch_error_rad =
+        r.measured.touchdown.state.pitch - plan.predicted.touchdown.state.pitch;
+    if (std::abs(r.touchdown_dx_error_m) > acc.max_touchdown_dx_error_m ||
+        std::abs(r.touchdown_pitch_error_rad) > acc.max_touchdown_pitch_error_rad)
+      verdict.fail(FailureReason::TargetMissed,
+                   strf("touchdown is %+.3f m and %+.3f rad off the prediction",
+                        r.touchdown_dx_error_m, r.touchdown_pitch_error_rad));
+  }
+  r.passed = r.failures.empty();
+  return r;
+}
+
+VerificationReport verify(const model::RobotModel& model, const VerifierSettings& settings,
+                          const planner::JumpPlan& plan, const InitialState& initial,
+                          const Scenario& scenario) {
+  return Verifier(model, settings).verify(plan, initial, scenario);
+}
+
+}  // namespace wj::sim
