@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   std::optional<double> v0;
   std::uint64_t seed = 1;
   int threads = 2;
+  std::optional<std::int64_t> max_evals;
   bool json = false, no_polish = false;
   app.add_option("--task", task_name, "preset: forward | vertical | backflip");
   app.add_option("--target", target_text, "custom target dx,z,pitch [m, m, rad] of the CoM");
@@ -47,6 +48,8 @@ int main(int argc, char** argv) {
   app.add_option("--obstacle", obstacle_text, "box obstacle x0,x1,height [m]");
   app.add_option("--seed", seed, "DE seed");
   app.add_option("--threads", threads, "DE evaluation threads")->check(CLI::Range(1, 64));
+  app.add_option("--max-evals", max_evals, "DE evaluation budget")
+      ->check(CLI::Range(100, 10000000));
   app.add_option("--config", config, "planner settings YAML (defaults if omitted)");
   app.add_flag("--no-polish", no_polish, "skip the Ipopt polish");
   app.add_flag("--json", json, "print JSON");
@@ -85,6 +88,7 @@ int main(int argc, char** argv) {
     opts.seed = seed;
     opts.threads = threads;
     if (no_polish) opts.polish = false;
+    if (max_evals) opts.max_evaluations = *max_evals;
     const PlannerResult r = planner.plan(sc.task, sc.initial, opts);
     const nlohmann::json j = reportJson(sc, r);
     if (json) {

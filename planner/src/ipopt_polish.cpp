@@ -1,6 +1,8 @@
 // Ipopt polish of a DE candidate (Ipopt 3.11 from Debian: headers under coin/, MUMPS).
 #include <coin/IpIpoptApplication.hpp>
 #include <coin/IpTNLP.hpp>
+#include <cstdlib>
+#include <limits>
 #include <mutex>
 #include <vector>
 
@@ -18,8 +20,10 @@ std::mutex& ipoptMutex() {
 
 // min energy_weight * energy(u)  s.t.  sampled margins >= 0, target errors = 0,
 // |landing pitch| <= tolerance (apex targets). Derivatives by forward differences; the
-// Hessian by L-BFGS. Only the constraint samples that are near-active at the DE's point are
-// passed to Ipopt; the caller re-checks the full set before accepting the result.
+// Hessian of the Lagrangian by a damped BFGS update kept here (dense, n <= 11): Ipopt's own
+// limited-memory option spends most of its time in extra back-solves for problems this small. Only
+// the constraint samples that are near-active at the DE's point are passed to Ipopt; the caller
+// re-checks the full set before accepting the result.
 class PolishNlp final : public Ipopt::TNLP {
  public:
   PolishNlp(const JumpModel& model, const Eigen::VectorXd& u0) : model_(model), u_full_(u0) {
@@ -48,7 +52,7 @@ class PolishNlp final : public Ipopt::TNLP {
     n = static_cast<Ipopt::Index>(free_.size());
     m = m_;
     nnz_jac_g = n * m;
-    nnz_h_lag = 0;
+    nnz_h_lag = n * (n + 1) / 2;
     index_style = C_STYLE;
     return true;
   }
@@ -115,6 +119,45 @@ class PolishNlp final : public Ipopt::TNLP {
     return true;
   }
 
+  bool eval_h(Ipopt::Index n, const Ipopt::Number* x, bool new_x, Ipopt::Number obj_factor,
+              Ipopt::Index m, const Ipopt::Number* lambda, bool, Ipopt::Index, Ipopt::Index* iRow,
+              Ipopt::Index* jCol, Ipopt::Number* values) override {
+    if (!values) {
+      Ipopt::Index idx = 0;
+      for (Ipopt::Index i = 0; i < n; ++i)
+        for (Ipopt::Index j = 0; j <= i; ++j, ++idx) {
+          iRow[idx] = i;
+          jCol[idx] = j;
+        }
+      return true;
+    }
+    if (!update(n, x, new_x)) return false;
+    const Eigen::Map<const Eigen::VectorXd> lam(lambda, m);
+    const Eigen::Map<const Eigen::VectorXd> xv(x, n);
+    if (B_.rows() != n) B_ = Eigen::MatrixXd::Identity(n, n);
+    if (have_prev_) {
+      // y = grad L(x_k, lambda_k) - grad L(x_{k-1}, lambda_k); Powell-damped BFGS.
+      const Eigen::VectorXd s = xv - prev_x_;
+      const Eigen::VectorXd y =
+          obj_factor * (grad_ - prev_grad_) + (jac_ - prev_jac_).transpose() * lam;
+      const Eigen::VectorXd Bs = B_ * s;
+      const double sBs = s.dot(Bs), sy = s.dot(y);
+      if (sBs > 1e-16) {
+        const double theta = sy >= 0.2 * sBs ? 1.0 : 0.8 * sBs / (sBs - sy);
+        const Eigen::VectorXd r = theta * y + (1.0 - theta) * Bs;
+        B_ += r * r.transpose() / s.dot(r) - Bs * Bs.transpose() / sBs;
+      }
+    }
+    prev_x_ = xv;
+    prev_grad_ = grad_;
+    prev_jac_ = jac_;
+    have_prev_ = true;
+    Ipopt::Index idx = 0;
+    for (Ipopt::Index i = 0; i < n; ++i)
+      for (Ipopt::Index j = 0; j <= i; ++j) values[idx++] = B_(i, j);
+    return true;
+  }
+
   bool intermediate_callback(Ipopt::AlgorithmMode, Ipopt::Index iter, Ipopt::Number, Ipopt::Number,
                              Ipopt::Number, Ipopt::Number, Ipopt::Number, Ipopt::Number,
                              Ipopt::Number, Ipopt::Number, Ipopt::Index, const Ipopt::IpoptData*,
@@ -129,6 +172,7 @@ class PolishNlp final : public Ipopt::TNLP {
                          const Ipopt::IpoptData*, Ipopt::IpoptCalculatedQuantities*) override {
     best_u_ = u_full_;
     for (Ipopt::Index i = 0; i < n; ++i) best_u_[free_[i]] = x[i];
+    if (best_feasible_u_.size() > 0) best_u_ = best_feasible_u_;
   }
 
  private:
@@ -146,6 +190,27 @@ class PolishNlp final : public Ipopt::TNLP {
     return true;
   }
 
+  // Ipopt may wander after having met every constraint; keep the best point that met them
+  // (to 1e-7) among all the points it evaluated, and return that one.
+  void rememberIfBest(const Eigen::VectorXd& u) {
+    double violation = 0.0;
+    const int n_ineq = static_cast<int>(active_.size());
+    for (int k = 0; k < m_; ++k) {
+      if (k < n_ineq) {
+        violation = std::max(violation, -c0_[k]);
+      } else if (k < n_ineq + static_cast<int>(residuals_.size())) {
+        violation = std::max(violation, std::abs(c0_[k]));
+      } else {
+        violation =
+            std::max(violation, std::abs(c0_[k]) - model_.settings().landing_pitch_tolerance_rad);
+      }
+    }
+    if (violation <= 1e-7 && f0_ < best_f_) {
+      best_f_ = f0_;
+      best_feasible_u_ = u;
+    }
+  }
+
   bool update(Ipopt::Index n, const Ipopt::Number* x, bool new_x) {
     if (!new_x && have_) return ok_;
     have_ = true;
@@ -153,6 +218,7 @@ class PolishNlp final : public Ipopt::TNLP {
     for (Ipopt::Index i = 0; i < n; ++i) u[free_[i]] = x[i];
     ok_ = value(u, f0_, c0_);
     if (!ok_) return false;
+    rememberIfBest(u);
     grad_.resize(n);
     jac_.resize(m_, n);
     Eigen::VectorXd c1;
@@ -180,6 +246,12 @@ class PolishNlp final : public Ipopt::TNLP {
   double f0_ = 0.0;
   Eigen::VectorXd c0_, grad_;
   Eigen::MatrixXd jac_;
+  Eigen::MatrixXd B_;  // BFGS approximation of the Lagrangian's Hessian
+  Eigen::VectorXd prev_x_, prev_grad_;
+  Eigen::MatrixXd prev_jac_;
+  bool have_prev_ = false;
+  double best_f_ = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best_feasible_u_;
 };
 
 }  // namespace
@@ -190,14 +262,16 @@ PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0,
   Ipopt::SmartPtr<PolishNlp> nlp = new PolishNlp(model, u0);
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
   app->Options()->SetStringValue("sb", "yes");
-  app->Options()->SetIntegerValue("print_level", 0);
-  app->Options()->SetStringValue("hessian_approximation", "limited-memory");
+  app->Options()->SetIntegerValue("print_level", std::getenv("WJ_IPOPT_PRINT") ? 5 : 0);
   app->Options()->SetStringValue("mu_strategy", "adaptive");
   app->Options()->SetIntegerValue("max_iter", model.settings().polish_max_iterations);
   app->Options()->SetNumericValue("tol", model.settings().polish_tolerance);
   app->Options()->SetNumericValue("constr_viol_tol", 1e-6);
   app->Options()->SetNumericValue("bound_push", 1e-6);
   app->Options()->SetNumericValue("bound_frac", 1e-6);
+  app->Options()->SetNumericValue("mu_init", 1e-3);
+  app->Options()->SetNumericValue("acceptable_tol", 1e-3);
+  app->Options()->SetIntegerValue("acceptable_iter", 3);
   std::lock_guard<std::mutex> lock(ipoptMutex());
   if (app->Initialize() != Ipopt::Solve_Succeeded) return PolishOutcome::Failed;
   const Ipopt::ApplicationReturnStatus status = app->OptimizeTNLP(nlp);

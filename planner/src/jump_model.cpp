@@ -186,6 +186,7 @@ struct PairSample {
 
 struct Sample {
   double t = 0.0;
+  double t1 = 0.0;  // end of the four-wheel phase
   PlanarState s;
   PairSample hind, front;
 };
@@ -328,6 +329,7 @@ struct JumpModelAccess {
   static void contactSample(const JumpModel& M, const Solved& S, double t, Sample& out,
                             bool phase2) {
     out.t = t;
+    out.t1 = S.t1;
     PlanarState s;
     Poly fHx, fHz, fFx, fFz;
     double dH = M.d_hind_, dHdot = 0.0;
@@ -397,8 +399,14 @@ struct JumpModelAccess {
       const int base = model::jointIndex(leg, model::JointKind::HAA);
       const int loc_pair = pair == 0 ? -1 : -2;
       const double lever = pair == 0 ? M.hind_.haa_lever : M.front_.haa_lever;
-      if (p.contact) {
-        sink(ConstraintClass::NormalForce, p.f.y() - st.min_normal_force_n, smp.t, loc_pair);
+      const bool lift_off = pair == 1 && M.task_.mode == TakeoffMode::TwoStep && smp.t >= smp.t1;
+      if (p.contact && !lift_off) {
+        // In a two-step take-off the front pair unloads linearly to zero at its lift-off (t1),
+        // so its minimum normal force ramps down with it.
+        const double f_min = (pair == 1 && M.task_.mode == TakeoffMode::TwoStep)
+                                 ? st.min_normal_force_n * std::max(0.0, 1.0 - smp.t / smp.t1)
+                                 : st.min_normal_force_n;
+        sink(ConstraintClass::NormalForce, p.f.y() - f_min, smp.t, loc_pair);
         sink(ConstraintClass::FrictionCone, st.friction_mu * p.f.y() - std::abs(p.f.x()), smp.t,
              loc_pair);
       } else {
@@ -433,6 +441,15 @@ struct JumpModelAccess {
     emitBody(M, smp.t, smp.s, &smp, nullptr, sink);
   }
 
+  // Clearance of a disc (centre p, radius r) to the obstacle. While the robot is on the ground
+  // (take-off), a point below the obstacle's top must stay in front of it: this cannot be
+  // tunnelled through between two samples, however fast the run-up.
+  static double obstacleMargin(const BoxObstacle& box, const Eigen::Vector2d& p, double r,
+                               bool on_ground) {
+    if (on_ground && p.y() - r < box.height) return box.x_min - (p.x() + r);
+    return boxDistance(box, p) - r;
+  }
+
   // Body height and obstacle margins at one instant. In take-off the wheel axles come from the
   // sample; in flight from the blended leg posture `flight_q` (HFE, KFE) per pair.
   template <class Sink>
@@ -451,7 +468,7 @@ struct JumpModelAccess {
                                                                    kPts[i][1] * M.box_half_.y());
       const Eigen::Vector2d p = com + R * pb;
       lowest = std::min(lowest, p.y());
-      if (box) clearance = std::min(clearance, boxDistance(*box, p));
+      if (box) clearance = std::min(clearance, obstacleMargin(*box, p, 0.0, smp != nullptr));
     }
     sink(ConstraintClass::BodyHeight, lowest - M.settings_.min_body_clearance_m, t, -3);
     if (box) {
@@ -463,7 +480,8 @@ struct JumpModelAccess {
           const auto& geo = pair == 0 ? M.hind_ : M.front_;
           axle = com + R * (geo.hip_rel_com + M.leg_.forward((*flight_q)[pair]));
         }
-        clearance = std::min(clearance, boxDistance(*box, axle) - M.wheel_radius_);
+        clearance =
+            std::min(clearance, obstacleMargin(*box, axle, M.wheel_radius_, smp != nullptr));
       }
       sink(ConstraintClass::ObstacleClearance, clearance - M.settings_.obstacle_margin_m, t, -3);
     }
@@ -482,8 +500,14 @@ struct JumpModelAccess {
 
   // Sweeps every constraint sample of a solved take-off and flight through `sink`, and
   // accumulates energy and joint maxima into the optional evaluation.
+  // |P|, or its smooth version sqrt(P^2 + 1 W^2) for the gradient-based polish.
+  static double absPower(double p, bool smooth) {
+    return smooth ? std::sqrt(p * p + 1.0) : std::abs(p);
+  }
+
   template <class Sink>
-  static void sweep(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev) {
+  static void sweep(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev,
+                    bool smooth_energy = false) {
     const auto& st = M.settings_;
     double energy = 0.0, prev_power = 0.0, prev_t = 0.0;
     Sample smp;
@@ -500,8 +524,9 @@ struct JumpModelAccess {
         double power = 0.0;
         for (const PairSample* p : {&smp.hind, &smp.front}) {
           if (!p->contact) continue;
-          power += 2.0 * (std::abs(p->tau[0] * p->qd[0]) + std::abs(p->tau[1] * p->qd[1]) +
-                          std::abs(p->wheel_tau * p->wheel_rate));
+          power += 2.0 * (absPower(p->tau[0] * p->qd[0], smooth_energy) +
+                          absPower(p->tau[1] * p->qd[1], smooth_energy) +
+                          absPower(p->wheel_tau * p->wheel_rate, smooth_energy));
           if (ev) {
             const double haa =
                 std::abs((p == &smp.hind ? M.hind_ : M.front_).haa_lever * p->haa_fz);
@@ -529,6 +554,16 @@ struct JumpModelAccess {
       const std::array<Eigen::Vector2d, 2> q = {flightPosture(M, S, q_to_hind, t, nullptr),
                                                 flightPosture(M, S, q_to_front, t, nullptr)};
       emitBody(M, t, s, nullptr, &q, sink);
+    }
+    if (M.task_.obstacle) {
+      // Clearing the obstacle means landing beyond it: the rear wheel touches down past its
+      // far face (otherwise stopping short of the wall would count as clearing it).
+      const PlanarState& td = S.touchdown;
+      const Eigen::Vector2d axle =
+          Eigen::Vector2d(td.x, td.z) +
+          Rot2(td.pitch) * (M.hind_.hip_rel_com + M.leg_.forward(M.q_landing_));
+      sink(ConstraintClass::ObstacleClearance,
+           axle.x() - M.wheel_radius_ - M.task_.obstacle->x_max - st.obstacle_margin_m, S.t3, -1);
     }
     if (ev) ev->energy_j = energy;
   }
@@ -652,7 +687,7 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   num_constraint_samples_ =
       per_contact *
           (s.samples_phase1 + (task_.mode == TakeoffMode::TwoStep ? s.samples_phase2 : 0)) +
-      per_flight * s.samples_flight;
+      per_flight * s.samples_flight + (task_.obstacle ? 1 : 0);
 }
 
 double JumpModel::standingComHeight(const model::RobotModel& robot, const Eigen::VectorXd& q) {
@@ -779,7 +814,7 @@ bool JumpModel::evaluateConstraints(const Eigen::Ref<const Eigen::VectorXd>& u,
     ++i;
   };
   Evaluation ev;
-  JumpModelAccess::sweep(*this, S, sink, &ev);
+  JumpModelAccess::sweep(*this, S, sink, &ev, /*smooth_energy=*/true);
   if (i != num_constraint_samples_)
     throw std::logic_error("JumpModel: constraint count " + std::to_string(i) +
                            " != " + std::to_string(num_constraint_samples_));

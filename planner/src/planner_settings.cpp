@@ -63,9 +63,12 @@ PlannerSettings::PlannerSettings() {
   de.strategy = de::Strategy::CurrentToPBest1Bin;
   de.adaptation = de::Adaptation::JDE;
   de.initialization = de::Initialization::LatinHypercube;
-  de.max_generations = 400;
-  de.max_evaluations = 12000;
-  de.stagnation_generations = 60;
+  de.max_generations = 1000;
+  de.max_evaluations = 6000;
+  de.stagnation_generations = 50;
+  // Stop once a feasible candidate is within about one tolerance of the target: the Ipopt
+  // polish then meets the target exactly at lower energy.
+  de.target_cost = 1.0;
   de.threads = 2;
   de.seed = 1;
   de.keep_log = true;
@@ -279,6 +282,7 @@ PlannerSettings parse(const YAML::Node& root) {
               {"time_budget_s", number(d.time_budget_s)},
               {"tolerance", number(d.tolerance)},
               {"stagnation_generations", integer(d.stagnation_generations)},
+              {"target_cost", number(d.target_cost)},
               {"threads", integer(d.threads)},
               {"seed", [&](const YAML::Node& v) { d.seed = v.as<std::uint64_t>(); }}});
        }},

@@ -82,7 +82,8 @@ class JumpModel {
   /// Number of individual constraint samples (fixed for this model), for the polish.
   int numConstraintSamples() const { return num_constraint_samples_; }
   /// Every sampled margin divided by its class scale (>= 0 when satisfied), and the target
-  /// residuals (dx, height, pitch errors, landing-pitch excess). Returns false if u is invalid.
+  /// residuals (dx, height, pitch errors, landing pitch), and the take-off energy with |P|
+  /// smoothed as sqrt(P^2 + 1 W^2) for gradient-based use. Returns false if u is invalid.
   bool evaluateConstraints(const Eigen::Ref<const Eigen::VectorXd>& u,
                            Eigen::Ref<Eigen::VectorXd> g,
                            Eigen::Ref<Eigen::Vector4d> target_residual, double* energy_j) const;

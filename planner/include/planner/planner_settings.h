@@ -75,7 +75,7 @@ struct PlannerSettings {
   // --- solver
   de::Settings de;     ///< Differential Evolution
   bool polish = true;  ///< run the Ipopt polish on the DE's best candidate
-  int polish_max_iterations = 60;
+  int polish_max_iterations = 15;
   double polish_tolerance = 1e-6;
 
   PlannerSettings();
