@@ -1,0 +1,65 @@
+// planner_server: the jump planning service (wheeljump.planner.v1.JumpPlanner over gRPC).
+// See docs/service.md for the configuration, the cache and what each status code means.
+#include <pthread.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <iostream>
+
+#include "server/config.h"
+#include "server/server_runner.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"Jump planning service of the wheeljump stack (gRPC, wheeljump.planner.v1)."};
+  std::string config_path, listen;
+  bool print_config = false;
+  app.add_option("--config", config_path,
+                 "YAML configuration; every key required, unknown keys refused "
+                 "(sample: config/planner_server.yaml). Without it the built-in defaults apply.");
+  app.add_option("--listen", listen,
+                 "host:port to listen on, overriding the configuration (default 127.0.0.1:50051; "
+                 "port 0 picks a free port)");
+  app.add_flag("--print-config", print_config, "print the effective configuration and exit");
+  CLI11_PARSE(app, argc, argv);
+
+  // SIGTERM and SIGINT are taken synchronously by sigwait() below: blocked here, before any
+  // thread starts, so that every thread inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  try {
+    wj::server::ServerConfig config = config_path.empty()
+                                          ? wj::server::ServerConfig{}
+                                          : wj::server::ServerConfig::fromYamlFile(config_path);
+    if (!listen.empty()) {
+      config.listen = listen;
+      config.validate();
+    }
+    std::cout << "# effective configuration\n" << config.toYaml() << std::flush;
+    if (print_config) return 0;
+    spdlog::set_default_logger(spdlog::stderr_color_mt("planner_server"));
+    spdlog::set_level(spdlog::level::from_str(config.log_level));
+
+    wj::server::PlannerServer server(config);
+    spdlog::info("{}", server.describe());
+    // Tests and scripts read this line to find an ephemeral port.
+    std::cout << "planner_server listening on " << server.address() << std::endl;
+
+    int received = 0;
+    sigwait(&signals, &received);
+    spdlog::info("signal {}: shutting down (grace {} s)", received, config.shutdown_grace_s);
+    server.shutdown();
+    const auto stats = server.core().stats();
+    spdlog::info("stopped after {:.1f} s: {} requests, {} hits, {} misses, cache flushed",
+                 stats.uptime_s, stats.requests, stats.cache_hits, stats.cache_misses);
+    std::cout << "planner_server stopped" << std::endl;
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "planner_server: " << e.what() << std::endl;
+    return 2;
+  }
+}

@@ -1,0 +1,138 @@
+#pragma once
+/// @file Configuration of planner_server, read from YAML. Every key is required and unknown keys
+/// are errors (no silent fallback on a misspelling, see STYLE.md); the sample with every key and
+/// its meaning is config/planner_server.yaml, the reference docs/service.md.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+namespace wj::server {
+
+/// Transport security of the listening port.
+enum class TlsMode {
+  Insecure,   ///< plaintext; only on a loopback address unless allow_insecure_non_loopback
+  Tls,        ///< server certificate; clients are not authenticated
+  MutualTls,  ///< server certificate, and clients must present one signed by client_ca_file
+};
+/// "insecure", "tls", "mutual_tls".
+std::string_view toString(TlsMode mode);
+
+/// Where the planner's settings come from and how much work one request may ask for.
+struct PlannerConfig {
+  std::string settings_file;  ///< planner settings YAML; "" = the planner's built-in defaults
+  int de_threads = 2;         ///< OpenMP threads of one Differential Evolution run, >= 1
+  std::int64_t max_evaluations_cap = 200000;  ///< upper bound applied to budget.max_evaluations
+  double polish_min_budget_s = 0.5;  ///< run the Ipopt polish only if the DE got at least this
+  double polish_reserve_s = 0.1;     ///< time kept back for the polish when it runs [s]
+};
+
+/// The worker pools. Planning never runs on gRPC's threads.
+struct ExecutorConfig {
+  int plan_workers = 1;    ///< concurrent plan computations (each uses de_threads), >= 1
+  int plan_queue = 8;      ///< plan computations waiting; beyond it RESOURCE_EXHAUSTED
+  int hit_workers = 2;     ///< threads regenerating cached plans, >= 1
+  int hit_queue = 256;     ///< cache hits waiting; beyond it RESOURCE_EXHAUSTED
+  int verify_workers = 2;  ///< threads running multibody verifications, >= 1
+};
+
+/// How client deadlines become planning budgets.
+struct DeadlineConfig {
+  double default_s = 10.0;       ///< budget of a call that has no deadline [s]
+  double max_s = 120.0;          ///< longer deadlines are cut to this [s]
+  double reply_margin_s = 0.02;  ///< kept back to send the answer before the deadline [s]
+  double min_budget_s = 0.01;    ///< below this the call fails with DEADLINE_EXCEEDED at once [s]
+};
+
+/// Multibody verification of the best candidates.
+struct VerificationConfig {
+  bool enabled = true;            ///< verify plans in simulation (requires the sim component)
+  std::string sim_settings_file;  ///< sim settings YAML; "" = the simulator's defaults
+  int default_candidates = 2;     ///< candidates verified when the request says 0, >= 1
+  int max_candidates = 8;         ///< requests asking for more are capped to this, >= 1
+  double budget_fraction = 0.4;   ///< share of the remaining time reserved for verification
+  double max_apex_height_error_m = 0.08;       ///< acceptance: |simulated - predicted| apex
+  double max_touchdown_dx_error_m = 0.15;      ///< acceptance: touchdown x error [m]
+  double max_touchdown_pitch_error_rad = 0.3;  ///< acceptance: touchdown pitch error [rad]
+};
+
+/// Solution cache keyed by the initial velocity (docs/service.md, "Cache").
+struct CacheConfig {
+  std::string path;  ///< SQLite file; "" = in memory only (nothing survives a restart)
+  std::int64_t max_memory_entries = 100000;      ///< LRU bound in memory, >= 1
+  std::int64_t max_persisted_entries = 1000000;  ///< oldest rows beyond this are pruned
+  bool synchronous_full = true;  ///< fsync every commit (survives power loss, not only crashes)
+  double v0_bin_m_s = 0.05;      ///< forward speed bin
+  double target_bin_m = 0.005;   ///< target dx and height bin
+  double target_bin_rad = 0.01;  ///< target pitch change bin
+  double obstacle_bin_m = 0.01;  ///< obstacle faces and height bin
+  double pitch_bin_rad = 0.02;   ///< initial pitch bin
+  double pitch_rate_bin_rad_s = 0.1;         ///< initial pitch rate bin
+  double posture_bin_rad = 0.02;             ///< bin of the non-wheel joint positions
+  int warm_start_neighbors = 2;              ///< cached neighbours seeding a miss, >= 0
+  double warm_start_max_distance_m_s = 0.5;  ///< how far in v0 a neighbour may be [m/s]
+};
+
+/// WarmCache streams.
+struct WarmCacheConfig {
+  int max_streams = 1;          ///< concurrent WarmCache calls; beyond it RESOURCE_EXHAUSTED
+  double point_budget_s = 5.0;  ///< planning budget of one grid point [s]
+};
+
+/// Bounds that keep every request's memory and the connection count finite.
+struct LimitsConfig {
+  int max_receive_message_bytes = 65536;          ///< requests are a few hundred bytes
+  int max_send_message_bytes = 16777216;          ///< a plan with its dense trajectory is ~0.5 MB
+  int max_concurrent_streams = 64;                ///< per HTTP/2 connection
+  int max_inflight_calls = 512;                   ///< calls in the server at once, all connections
+  std::int64_t resource_quota_bytes = 268435456;  ///< gRPC's memory quota for its buffers
+};
+
+/// HTTP/2 keepalive; the client library's defaults match these (docs/service.md).
+struct KeepaliveConfig {
+  int time_ms = 20000;               ///< ping an idle connection after this long
+  int timeout_ms = 10000;            ///< close it if the ping is not answered within this
+  bool permit_without_calls = true;  ///< pings allowed with no call in flight
+  int min_ping_interval_ms = 10000;  ///< clients pinging more often get GOAWAY
+};
+
+/// TLS material. Files are PEM.
+struct TlsConfig {
+  TlsMode mode = TlsMode::Insecure;
+  std::string server_cert_file;              ///< certificate chain (tls, mutual_tls)
+  std::string server_key_file;               ///< private key (tls, mutual_tls)
+  std::string client_ca_file;                ///< CA that signs client certificates (mutual_tls)
+  bool allow_insecure_non_loopback = false;  ///< plaintext on a non-loopback address
+};
+
+struct ServerConfig {
+  std::string listen = "127.0.0.1:50051";  ///< host:port; port 0 picks a free one
+  std::string models_dir;          ///< folder with wheeljump.urdf and actuators.yaml; "" = default
+  std::string log_level = "info";  ///< trace, debug, info, warn, error
+  double shutdown_grace_s = 5.0;   ///< SIGTERM: time in-flight calls get before cancellation
+  PlannerConfig planner;
+  ExecutorConfig executor;
+  DeadlineConfig deadlines;
+  VerificationConfig verification;
+  CacheConfig cache;
+  WarmCacheConfig warm_cache;
+  LimitsConfig limits;
+  KeepaliveConfig keepalive;
+  TlsConfig tls;
+
+  /// Throws std::invalid_argument naming the key and its allowed range.
+  void validate() const;
+  /// Reads a file. Throws std::runtime_error naming the file and the key: unknown or missing
+  /// key, wrong type, value out of range.
+  static ServerConfig fromYamlFile(const std::filesystem::path& path);
+  /// The same from YAML text; `origin` names the source in messages.
+  static ServerConfig fromYamlString(const std::string& text, const std::string& origin);
+  /// The effective configuration as YAML with every key (what fromYamlString accepts).
+  std::string toYaml() const;
+};
+
+/// True if the host of `listen` ("host:port", "[v6]:port") is a loopback address.
+bool isLoopbackListenAddress(std::string_view listen);
+
+}  // namespace wj::server

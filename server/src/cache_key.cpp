@@ -1,0 +1,219 @@
+#include "server/cache_key.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+namespace wj::server {
+
+namespace {
+
+// Little-endian writer and reader of fixed-width integers and doubles.
+class ByteWriter {
+ public:
+  template <typename T>
+  void put(T value) {
+    static_assert(std::is_integral_v<T> || std::is_enum_v<T>);
+    using U = std::make_unsigned_t<std::conditional_t<std::is_enum_v<T>, int, T>>;
+    auto u = static_cast<U>(value);
+    for (std::size_t i = 0; i < sizeof(U); ++i) {
+      out_.push_back(static_cast<char>(u & 0xffu));
+      u = static_cast<U>(u >> 8);
+    }
+  }
+  void putDouble(double v) { put(std::bit_cast<std::uint64_t>(v == 0.0 ? 0.0 : v)); }
+  void putBool(bool b) { put(static_cast<std::uint8_t>(b ? 1 : 0)); }
+  const std::string& bytes() const { return out_; }
+
+ private:
+  std::string out_;
+};
+
+class ByteReader {
+ public:
+  explicit ByteReader(std::string_view in) : in_(in) {}
+  template <typename T>
+  T get() {
+    using U = std::make_unsigned_t<T>;
+    U u = 0;
+    for (std::size_t i = 0; i < sizeof(U); ++i)
+      u = static_cast<U>(u |
+                         (static_cast<U>(static_cast<unsigned char>(in_[pos_ + i])) << (8 * i)));
+    pos_ += sizeof(U);
+    return static_cast<T>(u);
+  }
+
+ private:
+  std::string_view in_;
+  std::size_t pos_ = 0;
+};
+
+std::int32_t quantize(double value, double bin) {
+  const double q = std::round(value / bin);
+  // Inputs are validated and finite; the clamp only keeps the cast defined.
+  return static_cast<std::int32_t>(std::clamp(q, -2.0e9, 2.0e9));
+}
+
+}  // namespace
+
+std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t h) {
+  for (const char c : bytes) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 0x100000001b3ULL;
+  }
+  return h;
+}
+
+std::string CacheKey::bytes() const {
+  ByteWriter w;
+  w.put(v0_bin);
+  w.put(target_dx_bin);
+  w.put(target_height_bin);
+  w.put(target_pitch_bin);
+  w.put(event);
+  w.put(mode);
+  w.put(has_obstacle);
+  w.put(obstacle_x_min_bin);
+  w.put(obstacle_x_max_bin);
+  w.put(obstacle_height_bin);
+  w.put(pitch_bin);
+  w.put(pitch_rate_bin);
+  for (const auto p : posture) w.put(p);
+  w.put(seed);
+  w.put(model_hash);
+  w.put(settings_hash);
+  return w.bytes();
+}
+
+std::optional<CacheKey> CacheKey::fromBytes(std::string_view b) {
+  if (b.size() != kBytes) return std::nullopt;
+  ByteReader r(b);
+  CacheKey k;
+  k.v0_bin = r.get<std::int32_t>();
+  k.target_dx_bin = r.get<std::int32_t>();
+  k.target_height_bin = r.get<std::int32_t>();
+  k.target_pitch_bin = r.get<std::int32_t>();
+  k.event = r.get<std::uint8_t>();
+  k.mode = r.get<std::uint8_t>();
+  k.has_obstacle = r.get<std::uint8_t>();
+  k.obstacle_x_min_bin = r.get<std::int32_t>();
+  k.obstacle_x_max_bin = r.get<std::int32_t>();
+  k.obstacle_height_bin = r.get<std::int32_t>();
+  k.pitch_bin = r.get<std::int32_t>();
+  k.pitch_rate_bin = r.get<std::int32_t>();
+  for (auto& p : k.posture) p = r.get<std::int16_t>();
+  k.seed = r.get<std::uint64_t>();
+  k.model_hash = r.get<std::uint64_t>();
+  k.settings_hash = r.get<std::uint64_t>();
+  return k;
+}
+
+std::string CacheKey::hex() const {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string out;
+  for (const char c : bytes()) {
+    const auto u = static_cast<unsigned char>(c);
+    out += kDigits[u >> 4];
+    out += kDigits[u & 0xf];
+  }
+  return out;
+}
+
+CacheKey CacheKey::family() const {
+  CacheKey k = *this;
+  k.v0_bin = 0;
+  return k;
+}
+
+std::uint64_t CacheKey::hash() const {
+  return fnv1a64(bytes());
+}
+
+// Every field that changes a plan, in a fixed order. The static_asserts fail the build when a
+// field is added to the settings, so that this hash cannot silently miss it: add the field
+// below, then update the sizes.
+std::uint64_t hashPlannerSettings(const planner::PlannerSettings& s) {
+  static_assert(sizeof(planner::PlannerSettings) == 528,
+                "PlannerSettings changed: add the new field to hashPlannerSettings()");
+  static_assert(sizeof(planner::de::Settings) == 112,
+                "de::Settings changed: add the new field to hashPlannerSettings()");
+  ByteWriter w;
+  w.put(std::uint32_t{1});  // layout version of this hash
+  for (const double v : {s.gravity, s.friction_mu, s.min_normal_force_n, s.min_body_clearance_m,
+                         s.obstacle_margin_m, s.stand_hfe_rad, s.stand_kfe_rad, s.landing_hfe_rad,
+                         s.landing_kfe_rad, s.flight_blend_fraction, s.output_dt_s})
+    w.putDouble(v);
+  for (const int v : {s.samples_phase1, s.samples_phase2, s.samples_flight}) w.put(v);
+  for (const auto* b : {&s.t1_s, &s.t2_minus_t1_s, &s.mid_dx_m, &s.mid_dz_m, &s.mid_dpitch_rad,
+                        &s.takeoff_dx_m, &s.takeoff_dz_m, &s.takeoff_dpitch_rad, &s.takeoff_dvx_m_s,
+                        &s.takeoff_vz_m_s, &s.takeoff_pitch_rate_rad_s}) {
+    w.putDouble((*b)[0]);
+    w.putDouble((*b)[1]);
+  }
+  for (const double v : s.class_weight) w.putDouble(v);
+  for (const double v : {s.energy_weight, s.tolerance_dx_m, s.tolerance_height_m,
+                         s.tolerance_pitch_rad, s.landing_pitch_tolerance_rad})
+    w.putDouble(v);
+  const auto& d = s.de;
+  w.put(d.population_size);
+  w.put(static_cast<int>(d.strategy));
+  w.put(static_cast<int>(d.adaptation));
+  w.put(static_cast<int>(d.initialization));
+  for (const double v : {d.F, d.CR, d.p_best, d.time_budget_s, d.tolerance, d.target_cost})
+    w.putDouble(v);
+  w.put(d.max_generations);
+  w.put(d.max_evaluations);
+  w.put(d.stagnation_generations);
+  w.put(d.seed);
+  w.put(d.shade_memory_size);
+  // d.threads and d.keep_log do not change the result (same seed, same plan at any count).
+  w.putBool(s.polish);
+  w.put(s.polish_max_iterations);
+  w.putDouble(s.polish_tolerance);
+  return fnv1a64(w.bytes());
+}
+
+KeyQuantizer::KeyQuantizer(const CacheConfig& bins, std::uint64_t model_hash,
+                           std::uint64_t settings_hash)
+    : bins_(bins), model_hash_(model_hash), settings_hash_(settings_hash) {}
+
+std::int32_t KeyQuantizer::v0Bin(double v0) const {
+  return quantize(v0, bins_.v0_bin_m_s);
+}
+
+CacheKey KeyQuantizer::make(const planner::JumpTask& task, const planner::InitialState& initial,
+                            std::uint64_t seed) const {
+  CacheKey k;
+  k.v0_bin = v0Bin(initial.v0);
+  k.target_dx_bin = quantize(task.target.dx, bins_.target_bin_m);
+  k.target_height_bin = quantize(task.target.height, bins_.target_bin_m);
+  k.target_pitch_bin = quantize(task.target.pitch_change, bins_.target_bin_rad);
+  k.event = static_cast<std::uint8_t>(task.target.event);
+  k.mode = static_cast<std::uint8_t>(task.mode);
+  if (task.obstacle) {
+    k.has_obstacle = 1;
+    k.obstacle_x_min_bin = quantize(task.obstacle->x_min, bins_.obstacle_bin_m);
+    k.obstacle_x_max_bin = quantize(task.obstacle->x_max, bins_.obstacle_bin_m);
+    k.obstacle_height_bin = quantize(task.obstacle->height, bins_.obstacle_bin_m);
+  }
+  k.pitch_bin = quantize(initial.pitch, bins_.pitch_bin_rad);
+  k.pitch_rate_bin = quantize(initial.pitch_rate, bins_.pitch_rate_bin_rad_s);
+  int i = 0;
+  for (const model::Leg leg : model::kLegs) {
+    for (const model::JointKind kind :
+         {model::JointKind::HAA, model::JointKind::HFE, model::JointKind::KFE}) {
+      const std::int32_t b =
+          quantize(initial.q[model::jointIndex(leg, kind)], bins_.posture_bin_rad);
+      k.posture[static_cast<std::size_t>(i++)] =
+          static_cast<std::int16_t>(std::clamp(b, -32000, 32000));
+    }
+  }
+  k.seed = seed;
+  k.model_hash = model_hash_;
+  k.settings_hash = settings_hash_;
+  return k;
+}
+
+}  // namespace wj::server

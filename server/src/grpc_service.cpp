@@ -1,0 +1,215 @@
+#include "server/grpc_service.h"
+
+#include <spdlog/spdlog.h>
+
+#include <deque>
+#include <mutex>
+
+#include "server/request_validation.h"
+#include "server/response_conversion.h"
+#include "server/status_mapping.h"
+
+namespace wj::server {
+
+namespace v1 = wheeljump::planner::v1;
+
+namespace {
+
+// Printable, bounded form of a client string for the logs.
+std::string printable(const std::string& s) {
+  std::string out;
+  for (const char c : s.substr(0, 128)) out += (c >= 0x20 && c < 0x7f) ? c : '?';
+  return out;
+}
+
+grpc::Status tooManyCalls(int limit) {
+  return toGrpcStatus(ServiceError(ErrorCode::ResourceExhausted,
+                                   "too many calls in progress (limits.max_inflight_calls = " +
+                                       std::to_string(limit) + "); retry later"));
+}
+
+}  // namespace
+
+Clock::time_point toCoreDeadline(std::chrono::system_clock::time_point deadline,
+                                 const DeadlineConfig& config) {
+  const auto now = Clock::now();
+  double seconds = config.default_s;
+  if (deadline != std::chrono::system_clock::time_point::max()) {
+    seconds = std::chrono::duration<double>(deadline - std::chrono::system_clock::now()).count();
+    seconds = std::min(seconds, config.max_s);
+  }
+  return now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+}
+
+//==============================================================================================
+class PlanJumpReactor final : public grpc::ServerUnaryReactor {
+ public:
+  PlanJumpReactor(JumpPlannerService& service, grpc::CallbackServerContext* context,
+                  const v1::PlanJumpRequest* request, v1::PlanJumpResponse* response)
+      : service_(service) {
+    auto& core = service_.core_;
+    core.recordRequest();
+    if (!service_.admit()) {
+      admitted_ = false;
+      Finish(tooManyCalls(service_.config_.limits.max_inflight_calls));
+      return;
+    }
+    PlanRequest r;
+    try {
+      r = toPlanRequest(*request, core.robot());
+    } catch (...) {
+      core.recordInvalid();
+      const ServiceError e = classifyException(std::current_exception());
+      spdlog::debug("PlanJump {}: {}", printable(request->request_id()), e.what());
+      Finish(toGrpcStatus(e));
+      return;
+    }
+    const std::string request_id = r.request_id;
+    const auto& robot = core.robot();
+    call_ = std::make_shared<PlanCall>(
+        toCoreDeadline(context->deadline(), service_.config_.deadlines),
+        [this, response, request_id, &robot](PlanOutcome&& o) {
+          // On a core worker thread: convert and finish there.
+          if (o.error) {
+            spdlog::debug("PlanJump {}: {}", printable(request_id), o.error->what());
+            Finish(toGrpcStatus(*o.error));
+            return;
+          }
+          toProto(o.answer, robot, request_id, response);
+          Finish(grpc::Status::OK);
+        });
+    core.plan(std::move(r), call_);
+  }
+
+  void OnCancel() override {
+    if (call_) call_->cancel();
+  }
+  void OnDone() override {
+    if (admitted_) service_.release();
+    delete this;
+  }
+
+ private:
+  JumpPlannerService& service_;
+  std::shared_ptr<PlanCall> call_;
+  bool admitted_ = true;
+};
+
+//==============================================================================================
+class WarmCacheReactor final : public grpc::ServerWriteReactor<v1::WarmCacheProgress> {
+ public:
+  WarmCacheReactor(JumpPlannerService& service, grpc::CallbackServerContext* context,
+                   const v1::WarmCacheRequest* request)
+      : service_(service) {
+    auto& core = service_.core_;
+    if (!service_.admit()) {
+      admitted_ = false;
+      Finish(tooManyCalls(service_.config_.limits.max_inflight_calls));
+      return;
+    }
+    WarmRequest w;
+    try {
+      w = toWarmRequest(*request, core.robot(), core.nominalState(0.0));
+    } catch (...) {
+      core.recordInvalid();
+      Finish(toGrpcStatus(classifyException(std::current_exception())));
+      return;
+    }
+    call_ = std::make_shared<WarmCall>(
+        toCoreDeadline(context->deadline(), service_.config_.deadlines),
+        [this](const WarmProgress& p) { onProgress(p); },
+        [this](std::optional<ServiceError> e) { onDone(e); });
+    core.warm(std::move(w), call_);
+  }
+
+  void OnWriteDone(bool ok) override {
+    std::optional<grpc::Status> finish;
+    {
+      std::lock_guard lock(mu_);
+      queue_.pop_front();
+      if (!ok) broken_ = true;  // the client is gone; the cancellation follows
+      if (!broken_ && !queue_.empty()) {
+        StartWrite(&queue_.front());
+        return;
+      }
+      writing_ = false;
+      finish = final_status_;
+    }
+    // Outside the lock: OnDone (which deletes this) may run as soon as Finish is called.
+    if (finish) Finish(*finish);
+  }
+  void OnCancel() override {
+    if (call_) call_->cancel();
+  }
+  void OnDone() override {
+    if (admitted_) service_.release();
+    delete this;
+  }
+
+ private:
+  void onProgress(const WarmProgress& p) {
+    std::lock_guard lock(mu_);
+    if (broken_) return;
+    queue_.emplace_back();
+    toProto(p, &queue_.back());
+    if (!writing_) {
+      writing_ = true;
+      StartWrite(&queue_.front());
+    }
+  }
+  void onDone(const std::optional<ServiceError>& e) {
+    const grpc::Status status = e ? toGrpcStatus(*e) : grpc::Status::OK;
+    {
+      std::lock_guard lock(mu_);
+      if (writing_) {
+        final_status_ = status;  // finished by OnWriteDone once the queue is written
+        return;
+      }
+    }
+    Finish(status);
+  }
+
+  JumpPlannerService& service_;
+  std::shared_ptr<WarmCall> call_;
+  bool admitted_ = true;
+  std::mutex mu_;
+  std::deque<v1::WarmCacheProgress> queue_;  ///< front: being written
+  bool writing_ = false;
+  bool broken_ = false;
+  std::optional<grpc::Status> final_status_;
+};
+
+//==============================================================================================
+JumpPlannerService::JumpPlannerService(PlanningCore& core, const ServerConfig& config)
+    : core_(core), config_(config) {}
+
+bool JumpPlannerService::admit() {
+  if (inflight_.fetch_add(1) >= config_.limits.max_inflight_calls) {
+    inflight_.fetch_sub(1);
+    return false;
+  }
+  return true;
+}
+
+grpc::ServerUnaryReactor* JumpPlannerService::PlanJump(grpc::CallbackServerContext* context,
+                                                       const v1::PlanJumpRequest* request,
+                                                       v1::PlanJumpResponse* response) {
+  return new PlanJumpReactor(*this, context, request, response);
+}
+
+grpc::ServerUnaryReactor* JumpPlannerService::GetStats(grpc::CallbackServerContext* context,
+                                                       const v1::GetStatsRequest* /*request*/,
+                                                       v1::GetStatsResponse* response) {
+  // Reading counters is cheap and non-blocking: answered inline.
+  toProto(core_.stats(), response);
+  auto* reactor = context->DefaultReactor();
+  reactor->Finish(grpc::Status::OK);
+  return reactor;
+}
+
+grpc::ServerWriteReactor<v1::WarmCacheProgress>* JumpPlannerService::WarmCache(
+    grpc::CallbackServerContext* context, const v1::WarmCacheRequest* request) {
+  return new WarmCacheReactor(*this, context, request);
+}
+
+}  // namespace wj::server

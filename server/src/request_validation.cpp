@@ -1,0 +1,235 @@
+#include "server/request_validation.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <utility>
+
+namespace wj::server {
+
+namespace {
+
+[[noreturn]] void invalid(const std::string& message) {
+  throw ServiceError(ErrorCode::InvalidArgument, message);
+}
+
+std::string fmt(double v) {
+  std::ostringstream ss;
+  ss << v;
+  return ss.str();
+}
+
+void requireFinite(const std::string& field, double v) {
+  if (!std::isfinite(v)) invalid(field + " must be finite, got " + fmt(v));
+}
+
+void requireBound(const std::string& field, double v, double bound) {
+  if (!std::isfinite(v) || std::abs(v) > bound)
+    invalid(field + " must be finite and in [" + fmt(-bound) + ", " + fmt(bound) + "], got " +
+            fmt(v));
+}
+
+void requireVector(const std::string& field, const v1::Vector3& v, double bound) {
+  requireBound(field + ".x", v.x(), bound);
+  requireBound(field + ".y", v.y(), bound);
+  requireBound(field + ".z", v.z(), bound);
+}
+
+// Runs a planner check and renames its fields (e.g. "task.target.dx") to the proto's.
+template <typename Check>
+void withProtoNames(Check&& check,
+                    std::initializer_list<std::pair<std::string_view, std::string_view>> names) {
+  try {
+    check();
+  } catch (const std::invalid_argument& e) {
+    std::string message = e.what();
+    for (const auto& [from, to] : names) {
+      if (message.rfind(from, 0) == 0) {
+        message = std::string(to) + message.substr(from.size());
+        break;
+      }
+    }
+    invalid(message);
+  }
+}
+
+// Front-most point of the front wheels along x of J, relative to the CoM at t = 0 [m].
+double frontWheelReach(const model::RobotModel& robot, const planner::InitialState& initial) {
+  const Eigen::VectorXd q = initial.q;
+  const auto poses = robot.calcLinkPoses(q);
+  const Eigen::Vector3d com = robot.calcCompositeInertia(q).com;
+  const double c = std::cos(initial.pitch), s = std::sin(initial.pitch);
+  double reach = -1e9;
+  for (const model::Leg leg : {model::Leg::LF, model::Leg::RF}) {
+    const auto& wheel = robot.joint(leg, model::JointKind::Wheel);
+    const Eigen::Vector3d p = poses[static_cast<std::size_t>(wheel.child_link)].translation() - com;
+    // Nose-up pitch is a rotation about -y: x_J = x_B cos(pitch) - z_B sin(pitch).
+    reach = std::max(reach, p.x() * c - p.z() * s + robot.wheelRadius());
+  }
+  return reach;
+}
+
+}  // namespace
+
+planner::InitialState toInitialState(const v1::RobotState& state, const model::RobotModel& robot) {
+  requireVector("state.base_position_w_m", state.base_position_w_m(), RequestBounds::kMaxPositionM);
+  const auto& qm = state.base_orientation_w();
+  for (const auto& [name, v] :
+       {std::pair{"w", qm.w()}, {"x", qm.x()}, {"y", qm.y()}, {"z", qm.z()}})
+    requireFinite(std::string("state.base_orientation_w.") + name, v);
+  Eigen::Quaterniond q_WB(qm.w(), qm.x(), qm.y(), qm.z());
+  const double norm = q_WB.norm();
+  if (std::abs(norm - 1.0) > RequestBounds::kQuaternionNormTolerance)
+    invalid("state.base_orientation_w must be a unit quaternion (norm within " +
+            fmt(RequestBounds::kQuaternionNormTolerance) + " of 1), got norm " + fmt(norm));
+  q_WB.normalize();
+  const Eigen::Matrix3d R_WB = q_WB.toRotationMatrix();
+  const double roll = std::atan2(R_WB(2, 1), R_WB(2, 2));
+  if (std::abs(roll) > RequestBounds::kMaxRollRad)
+    invalid("state.base_orientation_w: roll must be in [" + fmt(-RequestBounds::kMaxRollRad) +
+            ", " + fmt(RequestBounds::kMaxRollRad) + "] rad (the jump is planar), got " +
+            fmt(roll));
+  requireVector("state.base_linear_velocity_w_m_s", state.base_linear_velocity_w_m_s(),
+                RequestBounds::kMaxLinearSpeedMS);
+  requireVector("state.base_angular_velocity_b_rad_s", state.base_angular_velocity_b_rad_s(),
+                RequestBounds::kMaxAngularSpeedRadS);
+  if (state.joint_positions_rad_size() != model::kNumJoints)
+    invalid("state.joint_positions_rad must have " + std::to_string(model::kNumJoints) +
+            " entries (LF, RF, LH, RH x HAA, HFE, KFE, WHEEL), got " +
+            std::to_string(state.joint_positions_rad_size()));
+  if (state.joint_velocities_rad_s_size() != model::kNumJoints)
+    invalid("state.joint_velocities_rad_s must have " + std::to_string(model::kNumJoints) +
+            " entries, got " + std::to_string(state.joint_velocities_rad_s_size()));
+  for (int i = 0; i < model::kNumJoints; ++i)
+    requireBound("state.joint_velocities_rad_s[" + std::to_string(i) + "]",
+                 state.joint_velocities_rad_s(i), RequestBounds::kMaxJointSpeedRadS);
+  requireFinite("state.stamp_s", state.stamp_s());
+
+  // The jump frame's x is the base heading projected on the ground.
+  const Eigen::Vector3d x_B = R_WB.col(0);
+  planner::InitialState s;
+  s.pitch = std::atan2(x_B.z(), x_B.head<2>().norm());
+  // Checked before the heading is used: a steep pitch leaves no horizontal heading.
+  if (std::abs(s.pitch) > 0.5)
+    invalid("state.base_orientation_w (pitch, nose-up) must be finite and in [-0.5, 0.5], got " +
+            fmt(s.pitch));
+  const Eigen::Vector2d heading = x_B.head<2>().normalized();
+  const auto& v = state.base_linear_velocity_w_m_s();
+  s.v0 = heading.x() * v.x() + heading.y() * v.y();
+  s.pitch_rate = -state.base_angular_velocity_b_rad_s().y();
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    requireFinite("state.joint_positions_rad[" + std::to_string(i) + "]",
+                  state.joint_positions_rad(i));
+    s.q[i] = state.joint_positions_rad(i);
+  }
+  withProtoNames([&] { s.validate(robot); },
+                 {{"initial.v0",
+                   "state.base_linear_velocity_w_m_s (forward speed v0 along the "
+                   "heading)"},
+                  {"initial.pitch_rate", "state.base_angular_velocity_b_rad_s (pitch rate -y)"},
+                  {"initial.pitch", "state.base_orientation_w (pitch, nose-up)"},
+                  {"initial.q", "state.joint_positions_rad"}});
+  return s;
+}
+
+planner::JumpTask toJumpTask(const v1::JumpTask& task, const model::RobotModel& robot,
+                             const planner::InitialState& initial) {
+  planner::JumpTask t;
+  switch (task.event()) {
+    case v1::TARGET_EVENT_APEX:
+      t.target.event = planner::TargetEvent::Apex;
+      break;
+    case v1::TARGET_EVENT_TOUCHDOWN:
+      t.target.event = planner::TargetEvent::Touchdown;
+      break;
+    default:
+      invalid("task.event must be TARGET_EVENT_APEX (1) or TARGET_EVENT_TOUCHDOWN (2), got " +
+              std::to_string(static_cast<int>(task.event())));
+  }
+  switch (task.takeoff_mode()) {
+    case v1::TAKEOFF_MODE_SIMULTANEOUS:
+      t.mode = planner::TakeoffMode::Simultaneous;
+      break;
+    case v1::TAKEOFF_MODE_TWO_STEP:
+      t.mode = planner::TakeoffMode::TwoStep;
+      break;
+    default:
+      invalid(
+          "task.takeoff_mode must be TAKEOFF_MODE_SIMULTANEOUS (1) or TAKEOFF_MODE_TWO_STEP (2), "
+          "got " +
+          std::to_string(static_cast<int>(task.takeoff_mode())));
+  }
+  t.target.dx = task.target_dx_m();
+  t.target.height = task.target_height_m();
+  t.target.pitch_change = task.target_pitch_change_rad();
+  if (task.has_obstacle()) {
+    t.obstacle = planner::BoxObstacle{task.obstacle().x_min_m(), task.obstacle().x_max_m(),
+                                      task.obstacle().height_m()};
+  }
+  withProtoNames([&] { t.validate(); },
+                 {{"task.target.dx", "task.target_dx_m"},
+                  {"task.target.height", "task.target_height_m"},
+                  {"task.target.pitch_change", "task.target_pitch_change_rad"},
+                  {"task.obstacle.x_min", "task.obstacle.x_min_m"},
+                  {"task.obstacle.x_max", "task.obstacle.x_max_m"},
+                  {"task.obstacle.height", "task.obstacle.height_m"}});
+  if (t.obstacle) {
+    const double reach = frontWheelReach(robot, initial);
+    if (t.obstacle->x_min <= reach)
+      invalid("task.obstacle.x_min_m must be ahead of the front wheels (> " + fmt(reach) +
+              " m in J at this posture), got " + fmt(t.obstacle->x_min));
+  }
+  return t;
+}
+
+PlanRequest toPlanRequest(const v1::PlanJumpRequest& request, const model::RobotModel& robot) {
+  if (request.request_id().size() > RequestBounds::kMaxRequestIdBytes)
+    invalid("request_id must be at most " + std::to_string(RequestBounds::kMaxRequestIdBytes) +
+            " bytes, got " + std::to_string(request.request_id().size()));
+  if (!request.has_state()) invalid("state is required");
+  if (!request.has_task()) invalid("task is required");
+  PlanRequest r;
+  r.request_id = request.request_id();
+  r.initial = toInitialState(request.state(), robot);
+  r.task = toJumpTask(request.task(), robot, r.initial);
+  const auto& b = request.budget();
+  if (b.max_evaluations() > RequestBounds::kMaxEvaluations)
+    invalid("budget.max_evaluations must be in [0, " +
+            std::to_string(RequestBounds::kMaxEvaluations) + "] (0 = server default), got " +
+            std::to_string(b.max_evaluations()));
+  if (b.max_verified_candidates() > RequestBounds::kMaxVerifiedCandidates)
+    invalid("budget.max_verified_candidates must be in [0, " +
+            std::to_string(RequestBounds::kMaxVerifiedCandidates) + "] (0 = server default), got " +
+            std::to_string(b.max_verified_candidates()));
+  if (b.max_evaluations() > 0) r.max_evaluations = b.max_evaluations();
+  r.max_verified_candidates = static_cast<int>(b.max_verified_candidates());
+  r.skip_verification = b.skip_verification();
+  r.seed = b.seed();
+  return r;
+}
+
+WarmRequest toWarmRequest(const v1::WarmCacheRequest& request, const model::RobotModel& robot,
+                          const planner::InitialState& nominal) {
+  if (!request.has_task()) invalid("task is required");
+  WarmRequest w;
+  w.task = toJumpTask(request.task(), robot, nominal);
+  const double lo = request.v0_min_m_s(), hi = request.v0_max_m_s(), step = request.v0_step_m_s();
+  // The planner's run-up range (InitialState::validate).
+  for (const auto& [name, v] : {std::pair{"v0_min_m_s", lo}, {"v0_max_m_s", hi}}) {
+    if (!std::isfinite(v) || v < -1.0 || v > 4.0)
+      invalid(std::string(name) + " must be finite and in [-1, 4], got " + fmt(v));
+  }
+  if (hi < lo) invalid("v0_max_m_s must be >= v0_min_m_s (" + fmt(lo) + "), got " + fmt(hi));
+  if (!std::isfinite(step) || step <= 0.0)
+    invalid("v0_step_m_s must be finite and > 0, got " + fmt(step));
+  const double points = std::floor((hi - lo) / step + 1e-9) + 1.0;
+  if (points > RequestBounds::kMaxWarmGridPoints)
+    invalid("the grid v0_min_m_s..v0_max_m_s in steps of v0_step_m_s must have at most " +
+            std::to_string(RequestBounds::kMaxWarmGridPoints) + " points, got " + fmt(points));
+  const int n = static_cast<int>(points);
+  for (int i = 0; i < n; ++i) w.v0_grid.push_back(std::min(lo + i * step, hi));
+  return w;
+}
+
+}  // namespace wj::server

@@ -1,0 +1,93 @@
+// The Simbody verifier of the sim component behind the PlanVerifier interface.
+#include <bit>
+#include <fstream>
+#include <sstream>
+
+#include "server/cache_key.h"
+#include "server/plan_verifier.h"
+#include "sim/verifier.h"
+
+namespace wj::server {
+
+namespace {
+
+class SimPlanVerifier final : public PlanVerifier {
+ public:
+  SimPlanVerifier(const model::RobotModel& robot, sim::VerifierSettings settings,
+                  std::uint64_t settings_hash)
+      : verifier_(robot, std::move(settings)), settings_hash_(settings_hash) {}
+
+  std::string name() const override { return "simbody (wj::sim::Verifier)"; }
+
+  VerifierVerdict verify(const planner::JumpPlan& plan,
+                         const planner::JumpTask& task) const override {
+    sim::Scenario scenario;
+    if (task.obstacle) {
+      scenario.name = "wall";
+      scenario.terrain =
+          sim::Terrain::wall(task.obstacle->x_min, task.obstacle->x_max, task.obstacle->height);
+    }
+    const sim::VerificationReport r = verifier_.verify(plan, scenario);
+    VerifierVerdict v;
+    v.passed = r.passed;
+    for (const sim::FailureReason f : r.failures.toVector())
+      v.failure_bits |= 1u << static_cast<unsigned>(f);
+    v.reasons = r.reasons;
+    v.simulated = r.measured;
+    v.max_envelope_ratio = r.max_envelope_ratio;
+    v.landed_upright = r.landed_upright;
+    return v;
+  }
+
+  std::vector<std::string> failureNames(std::uint32_t bits) const override {
+    std::vector<std::string> out;
+    for (int i = 0; i < sim::kNumFailureReasons; ++i)
+      if (bits & (1u << static_cast<unsigned>(i)))
+        out.emplace_back(sim::toString(static_cast<sim::FailureReason>(i)));
+    return out;
+  }
+
+  std::uint64_t settingsHash() const override { return settings_hash_; }
+
+ private:
+  sim::Verifier verifier_;
+  std::uint64_t settings_hash_;
+};
+
+std::string readFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("verification.sim_settings_file: cannot open " + path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+bool simVerifierAvailable() {
+  return true;
+}
+
+std::unique_ptr<PlanVerifier> makeSimVerifier(const model::RobotModel& robot,
+                                              const VerificationConfig& config) {
+  sim::VerifierSettings settings;
+  std::string sim_text;
+  if (!config.sim_settings_file.empty()) {
+    sim_text = readFile(config.sim_settings_file);
+    settings.sim = sim::parseSimSettings(sim_text, config.sim_settings_file);
+  }
+  settings.acceptance.max_apex_height_error_m = config.max_apex_height_error_m;
+  settings.acceptance.max_touchdown_dx_error_m = config.max_touchdown_dx_error_m;
+  settings.acceptance.max_touchdown_pitch_error_rad = config.max_touchdown_pitch_error_rad;
+  // The sim's built-in defaults are covered by the version tag: bump it when they change.
+  std::uint64_t h = fnv1a64("wj::sim::Verifier v1");
+  h = fnv1a64(sim_text, h);
+  for (const double x : {config.max_apex_height_error_m, config.max_touchdown_dx_error_m,
+                         config.max_touchdown_pitch_error_rad}) {
+    const auto bits = std::bit_cast<std::uint64_t>(x);
+    h = fnv1a64(std::string_view(reinterpret_cast<const char*>(&bits), sizeof bits), h);
+  }
+  return std::make_unique<SimPlanVerifier>(robot, std::move(settings), h);
+}
+
+}  // namespace wj::server
