@@ -129,12 +129,58 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   if (options.max_evaluations) des.max_evaluations = *options.max_evaluations;
   if (options.time_budget_s) des.time_budget_s = *options.time_budget_s;
   if (options.threads) des.threads = *options.threads;
-  const de::Solver solver(des);
+  des.validate();
   const JumpProblem problem(model);
 
   PlannerResult r;
   auto t0 = Clock::now();
-  r.de = solver.solve(problem, options.warm_start, options.cancel);
+  // Restarts: the evaluation budget is split into attempts; an attempt that ends without a
+  // feasible candidate (trapped in a penalty basin) is followed by one from a fresh
+  // population (deterministic seed sequence), keeping the best overall.
+  const std::int64_t total_budget = des.max_evaluations;
+  const std::int64_t attempt_budget =
+      std::max<std::int64_t>(total_budget / (settings_.de_restarts + 1), 10 * des.population_size);
+  {
+    de::Settings first = des;
+    first.max_evaluations = std::min(attempt_budget, total_budget);
+    r.de = de::Solver(first).solve(problem, options.warm_start, options.cancel);
+  }
+  for (int restart = 1; !r.de.best.feasible && restart <= settings_.de_restarts; ++restart) {
+    const bool cut_short = r.de.stop_reason == de::StopReason::Cancelled ||
+                           r.de.stop_reason == de::StopReason::TimeBudget;
+    const std::int64_t left = total_budget - r.de.evaluations;
+    if (cut_short || left < 10 * des.population_size) break;
+    de::Settings again = des;
+    again.seed = des.seed + 0x9E3779B97F4A7C15ULL * static_cast<std::uint64_t>(restart);
+    again.max_evaluations =
+        restart == settings_.de_restarts ? left : std::min(left, attempt_budget);
+    if (des.time_budget_s > 0.0) {
+      again.time_budget_s = des.time_budget_s - msSince(t0) / 1e3;
+      if (again.time_budget_s <= 0.0) break;
+    }
+    de::Result next = de::Solver(again).solve(problem, Eigen::MatrixXd(), options.cancel);
+    for (auto& g : next.log) {
+      g.generation += r.de.generations;
+      g.evaluations += r.de.evaluations;
+    }
+    if (next.first_feasible_evaluations >= 0) {
+      next.first_feasible_evaluations += r.de.evaluations;
+      next.first_feasible_s = msSince(t0) / 1e3 - (next.elapsed_s - next.first_feasible_s);
+    }
+    next.log.insert(next.log.begin(), r.de.log.begin(), r.de.log.end());
+    next.evaluations += r.de.evaluations;
+    next.generations += r.de.generations;
+    if (!(next.best.cost < r.de.best.cost)) {
+      // Keep the earlier best but account for the work done.
+      next.best = r.de.best;
+      next.best_x = r.de.best_x;
+      next.population = r.de.population;
+      next.fitness = r.de.fitness;
+    }
+    r.de = std::move(next);
+    ++r.de_restarts;
+  }
+  r.de.elapsed_s = msSince(t0) / 1e3;
   r.de_ms = msSince(t0);
   r.de_cost = r.de.best.cost;
   r.u = r.de.best_x;

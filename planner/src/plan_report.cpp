@@ -23,6 +23,7 @@ nlohmann::json reportJson(const Scenario& sc, const PlannerResult& r) {
   j["generations"] = r.de.generations;
   j["stop_reason"] = std::string(de::toString(r.de.stop_reason));
   j["first_feasible_evaluations"] = r.de.first_feasible_evaluations;
+  j["de_restarts"] = r.de_restarts;
   j["polish"] = {{"outcome", toString(r.polish)},
                  {"iterations", r.polish_iterations},
                  {"de_cost", r.de_cost},

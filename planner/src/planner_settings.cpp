@@ -64,8 +64,8 @@ PlannerSettings::PlannerSettings() {
   de.adaptation = de::Adaptation::JDE;
   de.initialization = de::Initialization::LatinHypercube;
   de.max_generations = 1000;
-  de.max_evaluations = 6000;
-  de.stagnation_generations = 50;
+  de.max_evaluations = 12000;
+  de.stagnation_generations = 40;
   // Stop once a feasible candidate is within about one tolerance of the target: the Ipopt
   // polish then meets the target exactly at lower energy.
   de.target_cost = 1.0;
@@ -132,6 +132,7 @@ void PlannerSettings::validate() const {
   check(tolerance_pitch_rad > 0, "cost.tolerance_pitch_rad", "> 0", tolerance_pitch_rad);
   check(landing_pitch_tolerance_rad > 0, "cost.landing_pitch_tolerance_rad", "> 0",
         landing_pitch_tolerance_rad);
+  check(de_restarts >= 0 && de_restarts <= 100, "de.restarts", "in [0, 100]", de_restarts);
   check(polish_max_iterations >= 0, "polish.max_iterations", ">= 0", polish_max_iterations);
   check(polish_tolerance > 0, "polish.tolerance", "> 0", polish_tolerance);
   de.validate();
@@ -283,6 +284,7 @@ PlannerSettings parse(const YAML::Node& root) {
               {"tolerance", number(d.tolerance)},
               {"stagnation_generations", integer(d.stagnation_generations)},
               {"target_cost", number(d.target_cost)},
+              {"restarts", integer(s.de_restarts)},
               {"threads", integer(d.threads)},
               {"seed", [&](const YAML::Node& v) { d.seed = v.as<std::uint64_t>(); }}});
        }},

@@ -52,6 +52,7 @@ struct PlannerResult {
   Eigen::VectorXd u;                  ///< its search vector
   std::vector<Candidate> candidates;  ///< best distinct candidates, best first (incl. the best)
   de::Result de;                      ///< the DE's result and per-generation log
+  int de_restarts = 0;                ///< DE restarts after stagnation without a feasible candidate
   PolishOutcome polish = PolishOutcome::NotRun;
   int polish_iterations = 0;
   double de_cost = 0.0;     ///< best cost after the DE

@@ -73,8 +73,9 @@ struct PlannerSettings {
   double landing_pitch_tolerance_rad = 0.15;  ///< |pitch at touchdown - upright| for apex targets
 
   // --- solver
-  de::Settings de;     ///< Differential Evolution
-  bool polish = true;  ///< run the Ipopt polish on the DE's best candidate
+  de::Settings de;      ///< Differential Evolution
+  int de_restarts = 3;  ///< fresh-population restarts after an infeasible stagnation
+  bool polish = true;   ///< run the Ipopt polish on the DE's best candidate
   int polish_max_iterations = 15;
   double polish_tolerance = 1e-6;
 

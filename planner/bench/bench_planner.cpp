@@ -1,0 +1,233 @@
+// bench_planner: measures the jump planner in one run and prints JSON (issue targets):
+//  - cold solve (DE + polish, no verification) of the three presets at 1 and 2 threads;
+//  - a warm-started solve from a neighbouring run-up speed;
+//  - the feasibility rate over a grid of run-up speeds (v0 = 0..3 m/s step 0.25, 10 seeds);
+//  - pagmo2's de and sade on the same objective with the same evaluation budget and seeds:
+//    time to the first feasible candidate and final cost, against our DE.
+// Usage: bench_planner [--quick] > result.json
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <pagmo/algorithm.hpp>
+#include <pagmo/algorithms/de.hpp>
+#include <pagmo/algorithms/sade.hpp>
+#include <pagmo/population.hpp>
+#include <pagmo/problem.hpp>
+#include <thread>
+#include <vector>
+
+#include "planner/jump_planner.h"
+#include "planner/presets.h"
+
+namespace {
+
+using namespace wj::planner;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+double median(std::vector<double> v) {
+  if (v.empty()) return -1.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Records when the first feasible candidate was evaluated (shared between pagmo's copies).
+struct Tracker {
+  Clock::time_point start = Clock::now();
+  std::atomic<long> evaluations{0};
+  std::atomic<long> first_feasible_evaluations{-1};
+  std::atomic<double> first_feasible_s{-1.0};
+  std::atomic<bool> any_feasible{false};
+};
+
+// The jump objective as a pagmo user-defined problem (same JumpModel, same cost).
+struct PagmoJump {
+  std::shared_ptr<const JumpModel> model;
+  std::shared_ptr<Tracker> tracker;
+  pagmo::vector_double fitness(const pagmo::vector_double& x) const {
+    Evaluation ev;
+    model->evaluate(Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<long>(x.size())), ev);
+    const long n = ++tracker->evaluations;
+    if (ev.feasible && !tracker->any_feasible.exchange(true)) {
+      tracker->first_feasible_evaluations = n;
+      tracker->first_feasible_s =
+          std::chrono::duration<double>(Clock::now() - tracker->start).count();
+    }
+    return {ev.cost};
+  }
+  std::pair<pagmo::vector_double, pagmo::vector_double> get_bounds() const {
+    const auto& lo = model->lowerBounds();
+    const auto& hi = model->upperBounds();
+    return {{lo.data(), lo.data() + lo.size()}, {hi.data(), hi.data() + hi.size()}};
+  }
+};
+
+json runPagmo(const std::string& algo, const JumpPlanner& planner, const Scenario& sc,
+              unsigned seed, long budget, int pop) {
+  auto model =
+      std::make_shared<const JumpModel>(planner.robot(), planner.settings(), sc.task, sc.initial);
+  auto tracker = std::make_shared<Tracker>();
+  pagmo::problem prob{PagmoJump{model, tracker}};
+  const unsigned gens = static_cast<unsigned>(std::max<long>(1, budget / pop - 1));
+  pagmo::algorithm alg =
+      algo == "sade" ? pagmo::algorithm{pagmo::sade(gens, 2u, 1u, 1e-30, 1e-30, false, seed)}
+                     : pagmo::algorithm{pagmo::de(gens, 0.8, 0.9, 2u, 1e-30, 1e-30, seed)};
+  tracker->start = Clock::now();
+  pagmo::population population{prob, static_cast<pagmo::population::size_type>(pop), seed};
+  population = alg.evolve(population);
+  const double wall = std::chrono::duration<double>(Clock::now() - tracker->start).count();
+  return {{"feasible", tracker->any_feasible.load()},
+          {"first_feasible_s", tracker->first_feasible_s.load()},
+          {"first_feasible_evaluations", tracker->first_feasible_evaluations.load()},
+          {"final_cost", population.champion_f()[0]},
+          {"evaluations", tracker->evaluations.load()},
+          {"wall_s", wall}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  const int runs = quick ? 3 : 10;
+  const int grid_seeds = quick ? 3 : 10;
+  const JumpPlanner planner(wj::model::RobotModel::loadDefault(), PlannerSettings{});
+  json out;
+  out["machine_threads"] = static_cast<int>(std::thread::hardware_concurrency());
+
+  // 1. Cold solves of the presets.
+  for (const auto& name : presetNames()) {
+    const Scenario sc = makePreset(planner, name);
+    for (const int threads : {1, 2}) {
+      std::vector<double> total, de_ms, polish_ms;
+      int feasible = 0;
+      for (int s = 1; s <= runs; ++s) {
+        PlanOptions o;
+        o.seed = static_cast<std::uint64_t>(s);
+        o.threads = threads;
+        const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+        total.push_back(r.total_ms);
+        de_ms.push_back(r.de_ms);
+        polish_ms.push_back(r.polish_ms);
+        feasible += r.evaluation.feasible;
+      }
+      out["cold_solve"][name][std::to_string(threads) + "_threads"] = {
+          {"median_ms", median(total)},
+          {"median_de_ms", median(de_ms)},
+          {"median_polish_ms", median(polish_ms)},
+          {"max_ms", *std::max_element(total.begin(), total.end())},
+          {"feasible", feasible},
+          {"runs", runs}};
+    }
+  }
+
+  // 2. Warm start from a neighbouring run-up speed (what the cache does on a miss).
+  {
+    std::vector<double> warm_ms, cold_ms;
+    int feasible = 0;
+    for (int s = 1; s <= runs; ++s) {
+      const Scenario base = makePreset(planner, "forward", 3.0);
+      PlanOptions o;
+      o.seed = static_cast<std::uint64_t>(s);
+      const PlannerResult r0 = planner.plan(base.task, base.initial, o);
+      const Scenario next = makePreset(planner, "forward", 3.05);
+      o.warm_start = r0.u;
+      o.seed = static_cast<std::uint64_t>(100 + s);
+      const PlannerResult r1 = planner.plan(next.task, next.initial, o);
+      warm_ms.push_back(r1.total_ms);
+      cold_ms.push_back(r0.total_ms);
+      feasible += r1.evaluation.feasible;
+    }
+    out["warm_start"] = {{"task", "forward 3.00 -> 3.05 m/s"},
+                         {"median_ms", median(warm_ms)},
+                         {"cold_median_ms", median(cold_ms)},
+                         {"feasible", feasible},
+                         {"runs", runs}};
+  }
+
+  // 3. Feasibility over a grid of run-up speeds, forward preset (wall at 1.2 m).
+  {
+    json grid = json::array();
+    int counted_runs = 0, counted_feasible = 0;
+    for (int k = 0; k <= 12; ++k) {
+      const double v0 = 0.25 * k;
+      const Scenario sc = makePreset(planner, "forward", v0);
+      int feasible = 0;
+      for (int s = 1; s <= grid_seeds; ++s) {
+        PlanOptions o;
+        o.seed = static_cast<std::uint64_t>(s);
+        feasible += planner.plan(sc.task, sc.initial, o).evaluation.feasible;
+      }
+      grid.push_back({{"v0", v0}, {"feasible", feasible}, {"seeds", grid_seeds}});
+      if (feasible > 0) {
+        counted_runs += grid_seeds;
+        counted_feasible += feasible;
+      }
+    }
+    out["grid"] = {{"task", "forward"},
+                   {"points", grid},
+                   {"rate_where_any_seed_feasible",
+                    counted_runs ? static_cast<double>(counted_feasible) / counted_runs : 0.0}};
+  }
+
+  // 4. Against pagmo2 at equal evaluation budgets and seeds (DE only, no polish).
+  {
+    const long budget = planner.settings().de.max_evaluations;
+    const int pop = planner.settings().de.population_size;
+    for (const auto& name : presetNames()) {
+      const Scenario sc = makePreset(planner, name);
+      std::vector<double> ours_first, ours_wall, sade_first, sade_wall, de_first, ours_cost,
+          sade_cost, de_cost;
+      int ours_feasible = 0, sade_feasible = 0, de_feasible = 0;
+      for (int s = 1; s <= runs; ++s) {
+        PlanOptions o;
+        o.seed = static_cast<std::uint64_t>(s);
+        o.threads = 2;
+        o.polish = false;
+        PlannerSettings no_early_stop = planner.settings();
+        no_early_stop.de.target_cost = -std::numeric_limits<double>::infinity();
+        no_early_stop.de.stagnation_generations = 0;
+        const JumpPlanner full(planner.robot(), no_early_stop);
+        const PlannerResult r = full.plan(sc.task, sc.initial, o);
+        ours_feasible += r.de.first_feasible_evaluations >= 0;
+        if (r.de.first_feasible_s >= 0) ours_first.push_back(r.de.first_feasible_s * 1e3);
+        ours_wall.push_back(r.de_ms);
+        ours_cost.push_back(r.de_cost);
+        const json ps = runPagmo("sade", planner, sc, static_cast<unsigned>(s), budget, pop);
+        sade_feasible += ps["feasible"].get<bool>();
+        if (ps["feasible"].get<bool>())
+          sade_first.push_back(ps["first_feasible_s"].get<double>() * 1e3);
+        sade_wall.push_back(ps["wall_s"].get<double>() * 1e3);
+        sade_cost.push_back(ps["final_cost"].get<double>());
+        const json pd = runPagmo("de", planner, sc, static_cast<unsigned>(s), budget, pop);
+        de_feasible += pd["feasible"].get<bool>();
+        if (pd["feasible"].get<bool>())
+          de_first.push_back(pd["first_feasible_s"].get<double>() * 1e3);
+        de_cost.push_back(pd["final_cost"].get<double>());
+      }
+      out["vs_pagmo"][name] = {{"budget_evaluations", budget},
+                               {"ours_2_threads",
+                                {{"feasible_runs", ours_feasible},
+                                 {"median_first_feasible_ms", median(ours_first)},
+                                 {"median_wall_ms", median(ours_wall)},
+                                 {"median_final_cost", median(ours_cost)}}},
+                               {"pagmo_sade",
+                                {{"feasible_runs", sade_feasible},
+                                 {"median_first_feasible_ms", median(sade_first)},
+                                 {"median_wall_ms", median(sade_wall)},
+                                 {"median_final_cost", median(sade_cost)}}},
+                               {"pagmo_de",
+                                {{"feasible_runs", de_feasible},
+                                 {"median_first_feasible_ms", median(de_first)},
+                                 {"median_final_cost", median(de_cost)}}},
+                               {"wall_ratio_sade_over_ours", median(sade_wall) / median(ours_wall)},
+                               {"runs", runs}};
+    }
+  }
+  std::cout << out.dump(2) << std::endl;
+  return 0;
+}
