@@ -77,14 +77,12 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
     throw std::invalid_argument("PlanExecutor: " + problem);
   if (settings_.landing_gravity_feedforward)
     landing_feedforward_ = calcStandingStatics(model, plan.q_landing, gravity_m_s2).tau;
-  // Wheel speed after take-off: the plan's wheel speed at t2 (the CoM keeps its horizontal
-  // speed in flight, so the wheels meet the ground at the right speed).
+  // Wheel speed after take-off: rolling at the planned horizontal CoM speed at t2, which the
+  // flight conserves, so that the wheels meet the ground without slip. Holding it also keeps
+  // the wheels from trading angular momentum with the body in flight.
   const int k2 =
       std::clamp(static_cast<int>(std::lround(plan.t2 / plan.dt)), 0, plan.numSamples() - 1);
-  double sum = 0.0;
-  for (const model::Leg leg : model::kLegs)
-    sum += plan.qd(k2, model::jointIndex(leg, model::JointKind::Wheel));
-  wheel_speed_ = sum / model::kNumLegs;
+  wheel_speed_ = plan.centroidal[k2].vx / model.wheelRadius();
 }
 
 void PlanExecutor::sample(double t, model::JointCommands& out) const {

@@ -1,4 +1,4 @@
-#include "jump_fixtures.h"
+#include "sim/reference_plans.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,12 +6,7 @@
 
 #include "sim/statics.h"
 
-namespace wj::sim::testing {
-
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+namespace wj::sim {
 
 JointVector standingPosture(const model::RobotModel& model, double base_height_m,
                             double x_offset_m) {
@@ -114,10 +109,15 @@ planner::JumpPlan makeVerticalJumpPlan(const model::RobotModel& model, const Ver
     plan.q.row(k) = q.transpose();
     plan.qd.row(k) = qd.transpose();
     if (t <= T) plan.tau.row(k) = calcStandingStatics(model, q, g, a).tau.transpose();
+    // Wheels roll at v0: their absolute spin is v0 / r, and the joint measures it relative to
+    // the shank, whose pitch is HFE + KFE (the base stays level).
     for (const model::Leg leg : model::kLegs) {
       const int w = model::jointIndex(leg, model::JointKind::Wheel);
-      plan.q(k, w) = spec.v0_m_s / r * t;
-      plan.qd(k, w) = spec.v0_m_s / r;
+      const int hfe = model::jointIndex(leg, model::JointKind::HFE);
+      const int kfe = model::jointIndex(leg, model::JointKind::KFE);
+      plan.q(k, w) =
+          spec.v0_m_s / r * t - (q[hfe] + q[kfe] - plan.q_initial[hfe] - plan.q_initial[kfe]);
+      plan.qd(k, w) = spec.v0_m_s / r - (qd[hfe] + qd[kfe]);
       plan.tau(k, w) = 0.0;
     }
   }
@@ -131,4 +131,4 @@ planner::JumpPlan makeVerticalJumpPlan(const model::RobotModel& model, const Ver
   return plan;
 }
 
-}  // namespace wj::sim::testing
+}  // namespace wj::sim

@@ -226,7 +226,7 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
   }
   GroundTruth gt;
   robot.reset(placement);
-  robot.calcGroundTruth(gt);
+  robot.calcGroundTruth(gt, false);
   {
     const double slope = scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0;
     const Eigen::Vector3d along(std::cos(slope), 0.0, std::sin(slope));
@@ -255,7 +255,7 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
   r.measured.min_obstacle_clearance = kInf;
   for (;;) {
     robot.read(sensors);
-    robot.calcGroundTruth(gt);
+    robot.calcGroundTruth(gt, static_cast<bool>(telemetry));
     const double t = gt.t;
     pitch = unwrappedPitch(gt.X_WB.linear(), pitch);
     bool contact = false;
@@ -330,6 +330,7 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
     }
   }
   r.integrator_steps = robot.integratorStats().steps_taken;
+  r.integrator_realizations = robot.integratorStats().realizations;
 
   // Landing state at the end of the run.
   const Eigen::Matrix3d R_WB = gt.X_WB.linear();

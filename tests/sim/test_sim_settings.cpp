@@ -59,7 +59,7 @@ TEST(SimSettings, ShippedFileEqualsDefaults) {
 
 TEST(SimSettings, ParsesEnumsAndBoxes) {
   std::string yaml = shippedYaml();
-  yaml = replace(yaml, "kind: semi_explicit_euler2", "kind: runge_kutta_merson");
+  yaml = replace(yaml, "kind: semi_explicit_euler ", "kind: runge_kutta_merson ");
   yaml = replace(yaml, "wheel_shape: sphere", "wheel_shape: ellipsoid");
   yaml = replace(yaml, "actuator_update: continuous", "actuator_update: zero_order_hold");
   yaml = replace(yaml, "boxes: []",

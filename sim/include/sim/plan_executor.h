@@ -80,7 +80,7 @@ class PlanExecutor {
   const planner::JumpPlan& plan_;
   ExecutorSettings settings_;
   StaticsJointVector landing_feedforward_ = StaticsJointVector::Zero();
-  double wheel_speed_ = 0.0;  // wheel speed reference after take-off [rad/s]
+  double wheel_speed_ = 0.0;  // wheel joint speed reference after take-off [rad/s]
   StaticsJointVector q_flight_start_ = StaticsJointVector::Zero();
   JumpPhase phase_ = JumpPhase::Takeoff;
   bool airborne_ = false;

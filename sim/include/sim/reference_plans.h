@@ -1,16 +1,14 @@
 #pragma once
-// Test fixtures of the sim tests: the robot, leg inverse kinematics, and hand-made jump plans
-// (the real planner is written elsewhere; these plans are computed in closed form).
+/// @file Reference postures and a closed-form jump plan: leg inverse kinematics for level
+/// standing, and a vertical jump from rolling with a constant-force push. For tests, the
+/// benchmark and smoke runs of the verifier without the DE planner.
 
 #include "planner/jump_plan.h"
 #include "robot_model/robot_model.h"
 #include "sim/settings.h"
 #include "sim/sim_robot.h"
 
-namespace wj::sim::testing {
-
-/// The project's robot (models/ of the source tree).
-model::RobotModel loadRobot();
+namespace wj::sim {
 
 /// Posture with HAA = 0 and every wheel centre straight below its HFE axis (plus `x_offset_m`
 /// along x), the base level at `base_height_m` above flat ground with rigid wheels; knees
@@ -41,4 +39,4 @@ struct VerticalJumpSpec {
 planner::JumpPlan makeVerticalJumpPlan(const model::RobotModel& model, const VerticalJumpSpec& spec,
                                        const ContactSettings& contact, double gravity_m_s2);
 
-}  // namespace wj::sim::testing
+}  // namespace wj::sim

@@ -47,7 +47,7 @@ struct ContactSettings {
   double static_friction = 0.9;                 ///< mu_s [-]
   double dynamic_friction = 0.7;                ///< mu_d [-], <= mu_s
   double viscous_friction_s_m = 0.0;            ///< mu_v [s/m]
-  double transition_velocity_m_s = 0.05;        ///< slip speed below which friction ramps up [m/s]
+  double transition_velocity_m_s = 0.2;         ///< slip speed below which friction ramps up [m/s]
   WheelShape wheel_shape = WheelShape::Sphere;  ///< stand-in for the wheel in ground contact
   double base_sphere_radius_m = 0.03;   ///< radius of the spheres that cover the base box [m]
   double body_sphere_radius_m = 0.015;  ///< radius of the spheres along thighs and shanks [m]
@@ -55,7 +55,7 @@ struct ContactSettings {
 
 /// Time integration of the multibody dynamics between control instants.
 struct IntegratorSettings {
-  IntegratorKind kind = IntegratorKind::SemiExplicitEuler2;  ///< method
+  IntegratorKind kind = IntegratorKind::SemiExplicitEuler;  ///< method
   double accuracy = 2e-2;    ///< relative accuracy of error-controlled methods [-]
   double max_step_s = 1e-3;  ///< largest internal step (the fixed step of SemiExplicitEuler) [s]
 };

@@ -55,6 +55,7 @@ struct RobotPlacement {
 struct IntegratorStats {
   long steps_taken = 0;      ///< accepted internal steps
   long steps_attempted = 0;  ///< including rejected ones
+  long realizations = 0;     ///< evaluations of the dynamics by the integrator
 };
 
 /// The 22-DoF robot (free base + 16 pin joints built from the RobotModel) with compliant
@@ -85,8 +86,10 @@ class SimRobot final : public model::RobotInterface {
   void reset(const RobotPlacement& placement);
   /// Simulation time [s].
   double time() const;
-  /// The full state at the current time into `out` (contact forces included).
-  void calcGroundTruth(GroundTruth& out) const;
+  /// The full state at the current time into `out`. Without `with_forces`, contact flags and
+  /// overlaps are exact but the Simbody contact forces are left zero (saves a force
+  /// evaluation per call; the box-terrain forces are always filled).
+  void calcGroundTruth(GroundTruth& out, bool with_forces = true) const;
   /// Whole-robot mass, centre of mass and central inertia as Simbody computes them, in the
   /// base frame (to compare with RobotModel::calcCompositeInertia).
   model::Inertia calcCompositeInertia() const;

@@ -161,7 +161,8 @@ struct VerificationReport {
   double touchdown_dx_error_m = std::numeric_limits<double>::quiet_NaN();       ///< [m]
   double touchdown_pitch_error_rad = std::numeric_limits<double>::quiet_NaN();  ///< [rad]
 
-  long integrator_steps = 0;  ///< accepted internal steps (work measure)
+  long integrator_steps = 0;         ///< accepted internal steps (work measure)
+  long integrator_realizations = 0;  ///< dynamics evaluations by the integrator
 };
 
 /// Runs plans on a fresh SimRobot per call and judges them (see the file comment).

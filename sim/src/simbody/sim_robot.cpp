@@ -167,6 +167,11 @@ struct SimRobot::Impl {
   std::unique_ptr<SimTK::Integrator> integ;
   long step_count = 0;
   std::mt19937_64 rng;
+  // IMU: base origin velocity at the start of the last period, or the exact acceleration
+  // right after reset() when there is no last period yet.
+  SimTK::Vec3 previous_v_GB{0.0};
+  SimTK::Vec3 reset_a_GB{0.0};
+  bool have_previous_velocity = false;
 };
 
 //==============================================================================================
@@ -458,7 +463,7 @@ double SimRobot::controlPeriod() const {
 void SimRobot::read(model::SensorData& out) {
   Impl& m = *impl_;
   const SimTK::State& s = m.state();
-  m.system.realize(s, SimTK::Stage::Acceleration);
+  m.system.realize(s, SimTK::Stage::Velocity);
   out.t = s.getTime();
   for (int i = 0; i < model::kNumJoints; ++i) {
     model::JointMeasurement& j = out.joints[i];
@@ -473,8 +478,14 @@ void SimRobot::read(model::SensorData& out) {
   const SimTK::Quaternion q = R_GB.convertRotationToQuaternion();
   out.imu.q_WB = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
   out.imu.omega_B = toEigen(~R_GB * base.getBodyAngularVelocity(s));
+  // The mean specific force over the last control period, as an accelerometer sampled at the
+  // control rate behind its anti-aliasing filter reports it (and no extra dynamics solve).
   const SimTK::Vec3 gravity(0, 0, -m.settings.gravity_m_s2);
-  out.imu.accel_B = toEigen(~R_GB * (base.getBodyOriginAcceleration(s) - gravity));
+  const SimTK::Vec3 a_GB =
+      m.have_previous_velocity
+          ? (base.getBodyOriginVelocity(s) - m.previous_v_GB) / m.settings.control_period_s
+          : m.reset_a_GB;
+  out.imu.accel_B = toEigen(~R_GB * (a_GB - gravity));
 
   const NoiseSettings& n = m.settings.noise;
   if (!n.enabled) return;
@@ -509,6 +520,9 @@ void SimRobot::advance() {
     for (int i = 0; i < model::kNumJoints; ++i) m.held_torque[i] = m.driveTorque(s, i, nullptr);
     m.invalidateForces();
   }
+  m.system.realize(m.state(), SimTK::Stage::Velocity);
+  m.previous_v_GB = m.mobods[0].getBodyOriginVelocity(m.state());
+  m.have_previous_velocity = true;
   ++m.step_count;
   const double t_next = static_cast<double>(m.step_count) * m.settings.control_period_s;
   try {
@@ -536,16 +550,19 @@ void SimRobot::reset(const RobotPlacement& placement) {
   m.rng.seed(m.settings.noise.seed);
   m.makeIntegrator();
   m.integ->initialize(s);
+  m.system.realize(m.state(), SimTK::Stage::Acceleration);
+  m.reset_a_GB = m.mobods[0].getBodyOriginAcceleration(m.state());
+  m.have_previous_velocity = false;
 }
 
 double SimRobot::time() const {
   return impl_->state().getTime();
 }
 
-void SimRobot::calcGroundTruth(GroundTruth& out) const {
+void SimRobot::calcGroundTruth(GroundTruth& out, bool with_forces) const {
   const Impl& m = *impl_;
   const SimTK::State& s = m.state();
-  m.system.realize(s, SimTK::Stage::Acceleration);
+  m.system.realize(s, with_forces ? SimTK::Stage::Dynamics : SimTK::Stage::Velocity);
   const SimTK::MobilizedBody& base = m.mobods[0];
   out.t = s.getTime();
   out.X_WB = toEigen(base.getBodyTransform(s));
@@ -578,22 +595,32 @@ void SimRobot::calcGroundTruth(GroundTruth& out) const {
       out.legs_in_contact = true;
     }
   };
-  // Ground contacts through Simbody's compliant contact subsystem.
+  // Ground contacts through Simbody's contact tracker (overlap) and compliant contact
+  // subsystem (forces, Dynamics stage).
   const SimTK::ContactSnapshot& active = m.tracker.getActiveContacts(s);
-  for (int k = 0; k < m.contact.getNumContactForces(s); ++k) {
-    const SimTK::ContactForce& f = m.contact.getContactForce(s, k);
-    const SimTK::Contact& c = active.getContactById(f.getContactId());
-    if (c.isEmpty()) continue;
-    double depth = 0.0;
+  const auto depthOf = [](const SimTK::Contact& c) {
     if (SimTK::CircularPointContact::isInstance(c))
-      depth = SimTK::CircularPointContact::getAs(c).getDepth();
-    else if (SimTK::EllipticalPointContact::isInstance(c))
-      depth = SimTK::EllipticalPointContact::getAs(c).getDepth();
+      return SimTK::CircularPointContact::getAs(c).getDepth();
+    if (SimTK::EllipticalPointContact::isInstance(c))
+      return SimTK::EllipticalPointContact::getAs(c).getDepth();
+    return 0.0;
+  };
+  const auto recordContact = [&](const SimTK::Contact& c, const SimTK::Vec3& force_on_2) {
     const int s2 = c.getSurface2();
     const bool robot_is_2 = m.surface_is_robot[s2];
     const int rs = robot_is_2 ? s2 : static_cast<int>(c.getSurface1());
-    const Eigen::Vector3d force = toEigen(f.getForceOnSurface2()[1]) * (robot_is_2 ? 1.0 : -1.0);
-    record(m.surface_part[rs], m.surface_leg[rs], force, depth);
+    record(m.surface_part[rs], m.surface_leg[rs], toEigen(force_on_2) * (robot_is_2 ? 1.0 : -1.0),
+           depthOf(c));
+  };
+  if (with_forces) {
+    for (int k = 0; k < m.contact.getNumContactForces(s); ++k) {
+      const SimTK::ContactForce& f = m.contact.getContactForce(s, k);
+      const SimTK::Contact& c = active.getContactById(f.getContactId());
+      if (!c.isEmpty()) recordContact(c, f.getForceOnSurface2()[1]);
+    }
+  } else {
+    for (int k = 0; k < active.getNumContacts(); ++k)
+      if (depthOf(active.getContact(k)) > 0.0) recordContact(active.getContact(k), SimTK::Vec3(0));
   }
   // Box contacts through the custom force element.
   m.forEachBoxContact(s, [&](const SphereGroup& g, const detail::SphereContact& c) {
@@ -626,7 +653,8 @@ double SimRobot::calcMechanicalEnergy() const {
 }
 
 IntegratorStats SimRobot::integratorStats() const {
-  return {impl_->integ->getNumStepsTaken(), impl_->integ->getNumStepsAttempted()};
+  return {impl_->integ->getNumStepsTaken(), impl_->integ->getNumStepsAttempted(),
+          impl_->integ->getNumRealizations()};
 }
 
 const SimSettings& SimRobot::settings() const {

@@ -1,0 +1,235 @@
+// The plan verifier: a sound hand-made jump passes and matches its closed-form prediction;
+// deliberately bad plans fail for the right reason; reports are deterministic and the same
+// from several threads.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "sim/reference_plans.h"
+#include "sim/verifier.h"
+
+namespace wj::sim {
+namespace {
+
+constexpr double kG = 9.81;
+
+model::RobotModel loadRobot() {
+  const std::filesystem::path dir = WJ_MODELS_DIR;
+  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
+}
+
+planner::JumpPlan verticalJump(const model::RobotModel& m, double v0, double push_accel = kG) {
+  VerticalJumpSpec spec;
+  spec.v0_m_s = v0;
+  spec.push_accel_m_s2 = push_accel;
+  return makeVerticalJumpPlan(m, spec, ContactSettings{}, kG);
+}
+
+void expectSameEvent(const planner::JumpEvent& a, const planner::JumpEvent& b) {
+  EXPECT_EQ(a.t, b.t);
+  EXPECT_EQ(a.base_z, b.base_z);
+  EXPECT_EQ(a.state.x, b.state.x);
+  EXPECT_EQ(a.state.z, b.state.z);
+  EXPECT_EQ(a.state.pitch, b.state.pitch);
+  EXPECT_EQ(a.state.vx, b.state.vx);
+  EXPECT_EQ(a.state.vz, b.state.vz);
+  EXPECT_EQ(a.state.pitch_rate, b.state.pitch_rate);
+}
+
+// Bit-for-bit equality of two reports (NaN equals NaN).
+void expectIdentical(const VerificationReport& a, const VerificationReport& b) {
+  const auto same = [](double x, double y) { return x == y || (std::isnan(x) && std::isnan(y)); };
+  EXPECT_EQ(a.passed, b.passed);
+  EXPECT_EQ(a.failures, b.failures);
+  EXPECT_EQ(a.reasons, b.reasons);
+  expectSameEvent(a.measured.takeoff, b.measured.takeoff);
+  expectSameEvent(a.measured.apex, b.measured.apex);
+  expectSameEvent(a.measured.touchdown, b.measured.touchdown);
+  EXPECT_EQ(a.measured.min_obstacle_clearance, b.measured.min_obstacle_clearance);
+  EXPECT_EQ(a.took_off, b.took_off);
+  EXPECT_EQ(a.touched_down, b.touched_down);
+  EXPECT_EQ(a.max_base_z_m, b.max_base_z_m);
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    EXPECT_EQ(a.joints[j].max_abs_torque_nm, b.joints[j].max_abs_torque_nm);
+    EXPECT_EQ(a.joints[j].max_abs_demand_nm, b.joints[j].max_abs_demand_nm);
+    EXPECT_EQ(a.joints[j].max_abs_speed_rad_s, b.joints[j].max_abs_speed_rad_s);
+    EXPECT_EQ(a.joints[j].max_envelope_ratio, b.joints[j].max_envelope_ratio);
+    EXPECT_EQ(a.joints[j].min_q_rad, b.joints[j].min_q_rad);
+    EXPECT_EQ(a.joints[j].max_q_rad, b.joints[j].max_q_rad);
+  }
+  EXPECT_EQ(a.max_envelope_ratio, b.max_envelope_ratio);
+  EXPECT_EQ(a.worst_envelope_joint, b.worst_envelope_joint);
+  EXPECT_EQ(a.max_speed_ratio, b.max_speed_ratio);
+  EXPECT_EQ(a.base_contact, b.base_contact);
+  EXPECT_EQ(a.leg_contact, b.leg_contact);
+  EXPECT_EQ(a.landed_upright, b.landed_upright);
+  EXPECT_EQ(a.final_time_s, b.final_time_s);
+  EXPECT_EQ(a.final_base_height_m, b.final_base_height_m);
+  EXPECT_EQ(a.final_pitch_rad, b.final_pitch_rad);
+  EXPECT_EQ(a.final_roll_rad, b.final_roll_rad);
+  EXPECT_EQ(a.final_angular_speed_rad_s, b.final_angular_speed_rad_s);
+  EXPECT_TRUE(same(a.apex_height_error_m, b.apex_height_error_m));
+  EXPECT_TRUE(same(a.touchdown_dx_error_m, b.touchdown_dx_error_m));
+  EXPECT_EQ(a.integrator_steps, b.integrator_steps);
+  EXPECT_EQ(a.integrator_realizations, b.integrator_realizations);
+}
+
+std::string describe(const VerificationReport& r) {
+  std::ostringstream ss;
+  for (const auto& s : r.reasons) ss << "\n  " << s;
+  return ss.str();
+}
+
+class VerifierTest : public ::testing::Test {
+ protected:
+  const model::RobotModel robot_ = loadRobot();
+  const Verifier verifier_{robot_, VerifierSettings{}};
+};
+
+TEST_F(VerifierTest, SoundVerticalJumpFromRollingPassesAndMatchesPrediction) {
+  const planner::JumpPlan plan = verticalJump(robot_, 1.0);
+  const VerificationReport r = verifier_.verify(plan, Scenario{});
+  EXPECT_TRUE(r.passed) << describe(r);
+  EXPECT_TRUE(r.failures.empty());
+  EXPECT_TRUE(r.took_off);
+  EXPECT_TRUE(r.touched_down);
+  EXPECT_TRUE(r.landed_upright);
+  // The closed-form prediction of the hand-made plan: ballistic apex and touchdown.
+  EXPECT_NEAR(r.measured.apex.state.z, plan.predicted.apex.state.z, 0.01);
+  EXPECT_NEAR(r.measured.touchdown.state.x, plan.predicted.touchdown.state.x, 0.02);
+  EXPECT_NEAR(r.measured.touchdown.t, plan.t3, 0.02);
+  EXPECT_NEAR(r.measured.takeoff.state.vz, plan.predicted.takeoff.state.vz, 0.15);
+  EXPECT_NEAR(r.measured.apex.state.vx, 1.0, 0.05);
+  EXPECT_NEAR(r.measured.apex.state.pitch, 0.0, 0.08);  // legs swinging in flight tilt the body
+  EXPECT_GT(r.max_base_z_m, r.measured.takeoff.base_z);
+  EXPECT_LT(r.max_envelope_ratio, 1.0);
+  EXPECT_GT(r.max_envelope_ratio, 0.1);
+  EXPECT_TRUE(std::isinf(r.measured.min_obstacle_clearance));
+  EXPECT_NEAR(r.final_base_height_m, r.nominal_base_height_m, 0.02);
+  EXPECT_NEAR(r.final_time_s, r.measured.touchdown.t + ExecutorSettings{}.landing_duration_s, 2e-3);
+  // Knees do work in the push; the wheel drives hold the rolling speed.
+  const int knee = model::jointIndex(model::Leg::LF, model::JointKind::KFE);
+  EXPECT_GT(r.joints[knee].max_abs_torque_nm, 5.0);
+  EXPECT_GT(r.joints[knee].max_abs_speed_rad_s, 1.0);
+}
+
+TEST_F(VerifierTest, TorquesBeyondTheEnvelopeFailWithTorqueLimit) {
+  const planner::JumpPlan plan = verticalJump(robot_, 0.0, 5.0 * kG);
+  // Precondition: the plan itself asks for more than the peak torque.
+  double peak_ff = 0.0;
+  for (int j = 0; j < model::kNumJoints; ++j)
+    peak_ff = std::max(peak_ff, plan.tau.col(j).cwiseAbs().maxCoeff() /
+                                    robot_.joints()[j].actuator.peak_torque_nm);
+  ASSERT_GT(peak_ff, 1.0);
+  const VerificationReport r = verifier_.verify(plan, Scenario{});
+  EXPECT_FALSE(r.passed);
+  EXPECT_TRUE(r.failures.contains(FailureReason::TorqueLimit)) << describe(r);
+  EXPECT_GT(r.max_envelope_ratio, 1.0);
+  ASSERT_GE(r.worst_envelope_joint, 0);
+  EXPECT_NE(describe(r).find(robot_.joints()[r.worst_envelope_joint].name), std::string::npos);
+  // The applied torque never leaves the envelope: the drives saturate.
+  for (int j = 0; j < model::kNumJoints; ++j)
+    EXPECT_LE(r.joints[j].max_abs_torque_nm, robot_.joints()[j].actuator.peak_torque_nm + 1e-9);
+}
+
+TEST_F(VerifierTest, TakeoffIntoTheWallFailsWithObstacleCollision) {
+  const planner::JumpPlan plan = verticalJump(robot_, 1.5);
+  Scenario wall{"wall", Terrain::wall(0.55, 0.65, 0.6)};
+  const VerificationReport r = verifier_.verify(plan, wall);
+  EXPECT_FALSE(r.passed);
+  EXPECT_TRUE(r.failures.contains(FailureReason::ObstacleCollision)) << describe(r);
+  EXPECT_LT(r.measured.min_obstacle_clearance, 0.0);
+
+  // The same jump with the wall far away clears it.
+  Scenario far{"far wall", Terrain::wall(4.0, 4.1, 0.6)};
+  const VerificationReport ok = verifier_.verify(plan, far);
+  EXPECT_FALSE(ok.failures.contains(FailureReason::ObstacleCollision)) << describe(ok);
+  EXPECT_GT(ok.measured.min_obstacle_clearance, 1.0);
+  EXPECT_TRUE(ok.passed) << describe(ok);
+}
+
+TEST_F(VerifierTest, MalformedPlansAndInitialStatesAreRejectedBeforeSimulating) {
+  planner::JumpPlan empty;
+  VerificationReport r = verifier_.verify(empty, Scenario{});
+  EXPECT_TRUE(r.failures.contains(FailureReason::InvalidPlan));
+  EXPECT_EQ(r.integrator_steps, 0);
+
+  planner::JumpPlan floating = verticalJump(robot_, 0.0);
+  floating.initial.z += 0.05;  // the wheels would start 5 cm above the ground
+  r = verifier_.verify(floating, Scenario{});
+  EXPECT_TRUE(r.failures.contains(FailureReason::InvalidInitialState)) << describe(r);
+  EXPECT_NEAR(r.initial_ground_gap_m, 0.05, 2e-3);
+}
+
+TEST_F(VerifierTest, SameInputsGiveTheSameReport) {
+  const planner::JumpPlan plan = verticalJump(robot_, 1.0);
+  const VerificationReport a = verifier_.verify(plan, Scenario{});
+  const VerificationReport b = verifier_.verify(plan, Scenario{});
+  expectIdentical(a, b);
+}
+
+TEST_F(VerifierTest, TwoThreadsGiveTheSameReportsAsOne) {
+  const planner::JumpPlan good = verticalJump(robot_, 1.0);
+  const planner::JumpPlan bad = verticalJump(robot_, 1.5);
+  const Scenario wall{"wall", Terrain::wall(0.55, 0.65, 0.6)};
+  const VerificationReport serial_a = verifier_.verify(good, Scenario{});
+  const VerificationReport serial_b = verifier_.verify(bad, wall);
+  VerificationReport parallel_a, parallel_b;
+  std::thread ta([&] { parallel_a = verifier_.verify(good, Scenario{}); });
+  std::thread tb([&] { parallel_b = verifier_.verify(bad, wall); });
+  ta.join();
+  tb.join();
+  expectIdentical(serial_a, parallel_a);
+  expectIdentical(serial_b, parallel_b);
+}
+
+TEST_F(VerifierTest, TelemetryHasOneSamplePerControlPeriod) {
+  const planner::JumpPlan plan = verticalJump(robot_, 1.0);
+  TelemetryRecorder recorder;
+  const VerificationReport r = verifier_.verify(plan, Scenario{}, recorder.callback());
+  const auto& s = recorder.samples();
+  ASSERT_FALSE(s.empty());
+  EXPECT_EQ(s.front().t, 0.0);
+  EXPECT_NEAR(s.back().t, r.final_time_s, 1e-12);
+  EXPECT_EQ(static_cast<long>(s.size()), std::lround(r.final_time_s / 1e-3) + 1);
+  EXPECT_EQ(s.front().phase, JumpPhase::Takeoff);
+  EXPECT_EQ(s.back().phase, JumpPhase::Landing);
+  // Standing at t = 0: the wheels carry the weight.
+  double fz = 0.0;
+  for (const auto& f : s.front().wheel_force_W) fz += f.z();
+  EXPECT_NEAR(fz, robot_.totalMass() * kG, 0.05 * robot_.totalMass() * kG);
+  // Telemetry does not change the result.
+  expectIdentical(r, verifier_.verify(plan, Scenario{}));
+
+  std::ostringstream csv;
+  recorder.writeCsv(csv);
+  const std::string text = csv.str();
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), static_cast<long>(s.size()) + 1);
+  EXPECT_EQ(text.rfind("t,phase,base_x", 0), 0u);
+}
+
+TEST(FailureSet, SetOperationsAndNames) {
+  FailureSet set;
+  EXPECT_TRUE(set.empty());
+  set.insert(FailureReason::TorqueLimit);
+  set.insert(FailureReason::ObstacleCollision);
+  set.insert(FailureReason::TorqueLimit);
+  EXPECT_EQ(set.size(), 2);
+  EXPECT_TRUE(set.contains(FailureReason::TorqueLimit));
+  EXPECT_FALSE(set.contains(FailureReason::NoTakeoff));
+  EXPECT_EQ(set.toVector(), (std::vector<FailureReason>{FailureReason::TorqueLimit,
+                                                        FailureReason::ObstacleCollision}));
+  std::set<std::string_view> names;
+  for (int i = 0; i < kNumFailureReasons; ++i)
+    names.insert(toString(static_cast<FailureReason>(i)));
+  EXPECT_EQ(static_cast<int>(names.size()), kNumFailureReasons);
+  EXPECT_EQ(names.count("?"), 0u);
+}
+
+}  // namespace
+}  // namespace wj::sim
