@@ -610,6 +610,8 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   env_hfe_ = robot_.joint(Leg::LF, JointKind::HFE).actuator;
   env_kfe_ = robot_.joint(Leg::LF, JointKind::KFE).actuator;
   env_wheel_ = robot_.joint(Leg::LF, JointKind::Wheel).actuator;
+  for (auto* env : {&env_haa_, &env_hfe_, &env_kfe_, &env_wheel_})
+    env->peak_torque_nm *= settings_.actuator_torque_scale;
   lim_hfe_ = {robot_.joint(Leg::LF, JointKind::HFE).lower_rad,
               robot_.joint(Leg::LF, JointKind::HFE).upper_rad};
   lim_kfe_ = {robot_.joint(Leg::LF, JointKind::KFE).lower_rad,

@@ -96,6 +96,8 @@ void PlannerSettings::validate() const {
   check(min_normal_force_n >= 0, "physics.min_normal_force_n", ">= 0", min_normal_force_n);
   check(min_body_clearance_m >= 0, "physics.min_body_clearance_m", ">= 0", min_body_clearance_m);
   check(obstacle_margin_m >= 0, "physics.obstacle_margin_m", ">= 0", obstacle_margin_m);
+  check(actuator_torque_scale > 0 && actuator_torque_scale <= 10, "physics.actuator_torque_scale",
+        "in (0, 10]", actuator_torque_scale);
   check(flight_blend_fraction > 0 && flight_blend_fraction <= 1, "postures.flight_blend_fraction",
         "in (0, 1]", flight_blend_fraction);
   check(samples_phase1 >= 4 && samples_phase1 <= 1000, "sampling.samples_phase1", "in [4, 1000]",
@@ -205,7 +207,8 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"friction_mu", number(s.friction_mu)},
                       {"min_normal_force_n", number(s.min_normal_force_n)},
                       {"min_body_clearance_m", number(s.min_body_clearance_m)},
-                      {"obstacle_margin_m", number(s.obstacle_margin_m)}});
+                      {"obstacle_margin_m", number(s.obstacle_margin_m)},
+                      {"actuator_torque_scale", number(s.actuator_torque_scale)}});
        }},
       {"postures",
        [&](const YAML::Node& n) {

@@ -36,6 +36,9 @@ struct PlannerSettings {
   double min_normal_force_n = 5.0;     ///< per wheel while in contact [N]
   double min_body_clearance_m = 0.04;  ///< lowest body point above the ground [m]
   double obstacle_margin_m = 0.02;     ///< required clearance to the obstacle [m]
+  /// Scales every actuator's peak torque in the planner's model (what-if studies of stronger
+  /// motors; 1 = the URDF's figures).
+  double actuator_torque_scale = 1.0;
 
   // --- postures (sagittal angles of every leg; HAA held at 0)
   double stand_hfe_rad = 1.0;  ///< take-off start posture used by the presets
