@@ -49,6 +49,7 @@ void ExecutorSettings::validate() const {
   requirePositive(landing_duration_s, "landing_duration_s");
   requirePositive(airborne_debounce_s, "airborne_debounce_s");
   requireNonNegative(max_flight_overrun_s, "max_flight_overrun_s");
+  requireNonNegative(joint_limit_margin_rad, "joint_limit_margin_rad");
 }
 
 std::string checkPlan(const planner::JumpPlan& plan) {
@@ -115,7 +116,10 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
   if (phase_ == JumpPhase::Takeoff && t >= plan_.t2 - 1e-12) {
     phase_ = JumpPhase::Flight;
     flight_start_ = t;
-    for (int j = 0; j < model::kNumJoints; ++j) q_flight_start_[j] = sensors.joints[j].q;
+    for (int j = 0; j < model::kNumJoints; ++j) {
+      q_flight_start_[j] = sensors.joints[j].q;
+      qd_flight_start_[j] = sensors.joints[j].qd;
+    }
   }
   if (phase_ == JumpPhase::Flight && t >= plan_.t3 + settings_.max_flight_overrun_s) {
     phase_ = JumpPhase::Landing;
@@ -127,18 +131,25 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       sample(t, out);
       return;
     case JumpPhase::Flight: {
-      // Minimum-jerk blend s(u) = 10u^3 - 15u^4 + 6u^5 from the take-off posture.
-      const double T = settings_.flight_blend_s;
-      const double u = std::clamp((t - flight_start_) / T, 0.0, 1.0);
-      const double s = u * u * u * (10.0 - 15.0 * u + 6.0 * u * u);
-      const double ds = 30.0 * u * u * (1.0 - u) * (1.0 - u) / T;
+      // The plan's own flight references while they last (the planner moves the legs to
+      // q_landing there); a plan that ends at take-off gets a quintic blend instead.
+      const double plan_end = (plan_.numSamples() - 1) * plan_.dt;
+      if (t <= plan_end) {
+        sample(t, out);
+      } else if (plan_end < flight_start_ + plan_.dt) {
+        blendToLanding(t, out);
+      } else {
+        for (int j = 0; j < model::kNumJoints; ++j)
+          out[j] = {plan_.q_landing[j], 0.0, 0.0, 0.0, 0.0};
+      }
       for (int j = 0; j < model::kNumJoints; ++j) {
         model::JointCommand& c = out[j];
+        c.tau_ff = 0.0;
         if (isWheel(j)) {
           c = {0.0, wheel_speed_, 0.0, settings_.wheel_kd, 0.0};
         } else {
-          const double dq = plan_.q_landing[j] - q_flight_start_[j];
-          c = {q_flight_start_[j] + s * dq, ds * dq, settings_.flight_kp, settings_.flight_kd, 0.0};
+          c.kp = settings_.flight_kp;
+          c.kd = settings_.flight_kd;
         }
       }
       return;
@@ -159,6 +170,27 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       }
       return;
     }
+  }
+}
+
+void PlanExecutor::blendToLanding(double t, model::JointCommands& out) const {
+  // Quintic from the measured position and speed at take-off to q_landing at rest, zero
+  // acceleration at both ends: q = q0 + v0 T u + b3 u^3 + b4 u^4 + b5 u^5, u = t / T. It
+  // overshoots when the legs still move fast, so it is kept inside the joint range.
+  const double T = settings_.flight_blend_s;
+  const double u = std::clamp((t - flight_start_) / T, 0.0, 1.0);
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    const double v0 = qd_flight_start_[j];
+    const double D = plan_.q_landing[j] - q_flight_start_[j] - v0 * T;
+    const double V = -v0 * T;
+    const double b3 = 10.0 * D - 4.0 * V, b4 = 7.0 * V - 15.0 * D, b5 = 6.0 * D - 3.0 * V;
+    const double q = q_flight_start_[j] + v0 * T * u + u * u * u * (b3 + u * (b4 + u * b5));
+    const double qd = v0 + u * u * (3.0 * b3 + u * (4.0 * b4 + u * 5.0 * b5)) / T;
+    const model::JointSpec& spec = model_.joints()[j];
+    const double margin = settings_.joint_limit_margin_rad;
+    out[j].q_des =
+        spec.continuous ? q : std::clamp(q, spec.lower_rad + margin, spec.upper_rad - margin);
+    out[j].qd_des = u < 1.0 ? qd : 0.0;
   }
 }
 

@@ -153,6 +153,34 @@ TEST_F(VerifierTest, TakeoffIntoTheWallFailsWithObstacleCollision) {
   EXPECT_TRUE(ok.passed) << describe(ok);
 }
 
+TEST_F(VerifierTest, MissingThePredictionFailsWithTargetMissed) {
+  planner::JumpPlan plan = verticalJump(robot_, 1.0);
+  plan.predicted.apex.state.z += 0.2;  // a planar model that promised 20 cm more
+  const VerificationReport r = verifier_.verify(plan, Scenario{});
+  EXPECT_EQ(r.failures.toVector(), std::vector<FailureReason>{FailureReason::TargetMissed})
+      << describe(r);
+  EXPECT_NEAR(r.apex_height_error_m, -0.2, 0.02);
+}
+
+TEST_F(VerifierTest, PlanEndingAtTakeoffGetsAFlightBlendToTheLandingPosture) {
+  planner::JumpPlan plan = verticalJump(robot_, 1.0);
+  const int n = static_cast<int>(std::lround(plan.t2 / plan.dt)) + 1;  // samples up to t2
+  plan.centroidal.resize(n);
+  plan.q.conservativeResize(n, Eigen::NoChange);
+  plan.qd.conservativeResize(n, Eigen::NoChange);
+  plan.tau.conservativeResize(n, Eigen::NoChange);
+  TelemetryRecorder recorder;
+  const VerificationReport r = verifier_.verify(plan, Scenario{}, recorder.callback());
+  EXPECT_TRUE(r.passed) << describe(r);
+  // In flight the legs reach q_landing.
+  const int knee = model::jointIndex(model::Leg::LF, model::JointKind::KFE);
+  const auto before_touchdown =
+      std::find_if(recorder.samples().begin(), recorder.samples().end(),
+                   [&](const TelemetrySample& s) { return s.t >= r.measured.touchdown.t - 2e-3; });
+  ASSERT_NE(before_touchdown, recorder.samples().end());
+  EXPECT_NEAR(before_touchdown->q[knee], plan.q_landing[knee], 0.05);
+}
+
 TEST_F(VerifierTest, MalformedPlansAndInitialStatesAreRejectedBeforeSimulating) {
   planner::JumpPlan empty;
   VerificationReport r = verifier_.verify(empty, Scenario{});

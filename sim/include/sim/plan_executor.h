@@ -17,7 +17,7 @@ namespace wj::sim {
 /// Phase of a jump being executed.
 enum class JumpPhase : std::uint8_t {
   Takeoff,  ///< t < t2: track the plan's joint references and feedforward torques
-  Flight,   ///< t >= t2 until touchdown: legs move to the landing posture
+  Flight,   ///< t >= t2 until touchdown: legs follow the plan's flight references to q_landing
   Landing,  ///< after touchdown: impedance posture, wheels braking
 };
 
@@ -27,14 +27,16 @@ std::string_view toString(JumpPhase phase);
 /// Gains and timing of the executor. Leg gains apply to HAA, HFE and KFE; wheels always run
 /// with kp = 0 (speed control, paper Sec. II-D).
 struct ExecutorSettings {
-  double takeoff_kp = 150.0;     ///< leg stiffness tracking plan.q in take-off [Nm/rad]
-  double takeoff_kd = 3.0;       ///< leg damping tracking plan.qd in take-off [Nm s/rad]
-  double wheel_kd = 1.0;         ///< wheel speed gain in every phase [Nm s/rad]
-  double flight_kp = 80.0;       ///< leg stiffness towards q_landing in flight [Nm/rad]
-  double flight_kd = 2.0;        ///< leg damping in flight [Nm s/rad]
-  double flight_blend_s = 0.12;  ///< minimum-jerk blend from take-off posture to q_landing [s]
-  double landing_kp = 60.0;      ///< leg stiffness of the landing posture [Nm/rad]
-  double landing_kd = 2.5;       ///< leg damping of the landing posture [Nm s/rad]
+  double takeoff_kp = 150.0;  ///< leg stiffness tracking plan.q in take-off [Nm/rad]
+  double takeoff_kd = 3.0;    ///< leg damping tracking plan.qd in take-off [Nm s/rad]
+  double wheel_kd = 1.0;      ///< wheel speed gain in every phase [Nm s/rad]
+  double flight_kp = 80.0;    ///< leg stiffness towards q_landing in flight [Nm/rad]
+  double flight_kd = 2.0;     ///< leg damping in flight [Nm s/rad]
+  /// Plans without flight samples: quintic blend from the take-off state to q_landing [s].
+  double flight_blend_s = 0.12;
+  double joint_limit_margin_rad = 0.05;     ///< flight references stay this far inside the range
+  double landing_kp = 60.0;                 ///< leg stiffness of the landing posture [Nm/rad]
+  double landing_kd = 2.5;                  ///< leg damping of the landing posture [Nm s/rad]
   bool landing_gravity_feedforward = true;  ///< add the standing statics torques of q_landing
   double landing_wheel_decel_m_s2 = 2.0;    ///< wheel speed reference ramps to 0 at this rate
   double landing_duration_s = 1.0;          ///< length of the landing phase [s]
@@ -73,15 +75,18 @@ class PlanExecutor {
   bool finished(double t) const;
 
  private:
-  // Plan references interpolated linearly at time t.
+  // Plan references interpolated linearly at time t (take-off gains).
   void sample(double t, model::JointCommands& out) const;
+  // Flight references of a plan without flight samples (positions and speeds only).
+  void blendToLanding(double t, model::JointCommands& out) const;
 
   const model::RobotModel& model_;
   const planner::JumpPlan& plan_;
   ExecutorSettings settings_;
   StaticsJointVector landing_feedforward_ = StaticsJointVector::Zero();
   double wheel_speed_ = 0.0;  // wheel joint speed reference after take-off [rad/s]
-  StaticsJointVector q_flight_start_ = StaticsJointVector::Zero();
+  StaticsJointVector q_flight_start_ = StaticsJointVector::Zero();   // measured at t2
+  StaticsJointVector qd_flight_start_ = StaticsJointVector::Zero();  // measured at t2
   JumpPhase phase_ = JumpPhase::Takeoff;
   bool airborne_ = false;
   double last_contact_t_ = 0.0;

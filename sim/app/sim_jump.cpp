@@ -1,0 +1,214 @@
+// sim_jump: plans a jump with the planner library, verifies it in the Simbody simulation, and
+// prints the plan's prediction and the simulated outcome side by side. Writes CSV telemetry and,
+// with --plot, figures like the paper's Fig. 7 and Fig. 11 (gnuplot).
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "planner/jump_planner.h"
+#include "planner/plan_report.h"
+#include "planner/presets.h"
+#include "sim/telemetry.h"
+#include "sim/verifier.h"
+
+namespace {
+
+using nlohmann::json;
+namespace pl = wj::planner;
+namespace sm = wj::sim;
+using wj::model::JointKind;
+using wj::model::Leg;
+
+json eventJson(const pl::JumpEvent& e) {
+  return {{"t", e.t},
+          {"com_x", e.state.x},
+          {"com_z", e.state.z},
+          {"pitch", e.state.pitch},
+          {"com_vx", e.state.vx},
+          {"com_vz", e.state.vz},
+          {"base_z", e.base_z}};
+}
+
+json outcomeJson(const pl::JumpOutcome& o) {
+  json j = {{"takeoff", eventJson(o.takeoff)},
+            {"apex", eventJson(o.apex)},
+            {"touchdown", eventJson(o.touchdown)}};
+  j["min_obstacle_clearance"] =
+      std::isfinite(o.min_obstacle_clearance) ? json(o.min_obstacle_clearance) : json(nullptr);
+  return j;
+}
+
+// Writes the planned CoM height and the figure script, then runs gnuplot.
+void plot(const std::filesystem::path& png, const std::filesystem::path& csv,
+          const pl::JumpPlan& plan, const wj::model::RobotModel& robot) {
+  const std::filesystem::path planned = png.string() + ".plan.dat";
+  {
+    std::ofstream out(planned);
+    for (int k = 0; k < plan.numSamples(); ++k)
+      out << k * plan.dt << " " << plan.centroidal[k].z << "\n";
+  }
+  const auto& hfe = robot.joint(Leg::LF, JointKind::HFE).actuator;
+  const auto& wheel = robot.joint(Leg::LF, JointKind::Wheel).actuator;
+  // Telemetry columns (1-based): com_z 18; q_* 22..37; qd_* 38..53; tau_* 54..69; LF first.
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 1200,1100 font ',10'\n"
+     << "set output '" << png.string() << "'\n"
+     << "set datafile separator ','\nset key outside right\nset grid\n"
+     << "set multiplot layout 3,1 title 'sim\\_jump: left-front leg and CoM (limits dashed)'\n"
+     << "set arrow from " << plan.t1 << ", graph 0 to " << plan.t1
+     << ", graph 1 nohead dt 3 lc 'gray'\n"
+     << "set arrow from " << plan.t2 << ", graph 0 to " << plan.t2
+     << ", graph 1 nohead dt 3 lc 'gray'\n"
+     << "set arrow from " << plan.t3 << ", graph 0 to " << plan.t3
+     << ", graph 1 nohead dt 3 lc 'gray'\n"
+     << "set ylabel 'joint velocity [rad/s]'\n"
+     << "plot '" << csv.string()
+     << "' every ::1 using 1:38 w l t 'LF HAA', '' every ::1 using 1:39 w l "
+     << "t 'LF HFE', '' every ::1 using 1:40 w l t 'LF KFE', '' every ::1 using 1:41 w l t 'LF "
+        "WHEEL', "
+     << wheel.no_load_speed_rad_s << " dt 2 lc 'red' t 'no-load speed', "
+     << -wheel.no_load_speed_rad_s << " dt 2 lc 'red' notitle\n"
+     << "set ylabel 'joint torque [Nm]'\n"
+     << "plot '" << csv.string()
+     << "' every ::1 using 1:54 w l t 'LF HAA', '' every ::1 using 1:55 w l "
+     << "t 'LF HFE', '' every ::1 using 1:56 w l t 'LF KFE', '' every ::1 using 1:57 w l t 'LF "
+        "WHEEL', "
+     << hfe.peak_torque_nm << " dt 2 lc 'red' t 'peak torque', " << -hfe.peak_torque_nm
+     << " dt 2 lc 'red' notitle\n"
+     << "set ylabel 'CoM height [m]'\nset xlabel 'time [s] (dotted: t1, t2, t3 of the plan)'\n"
+     << "plot '" << csv.string() << "' every ::1 using 1:18 w l lw 2 t 'simulated', '"
+     << planned.string() << "' using 1:2 w l dt 4 t 'planned' \n"
+     << "unset multiplot\n";
+  const std::filesystem::path script = png.string() + ".gp";
+  std::ofstream(script) << gp.str();
+  std::ofstream(planned, std::ios::app).close();
+  // The plan file has a space separator; gnuplot's separator is per file via a temporary set.
+  std::string text = gp.str();
+  const std::string needle = "'" + planned.string() + "' using 1:2";
+  text.replace(text.find(needle), needle.size(),
+               "'< tr \" \" \",\" < " + planned.string() + "' using 1:2");
+  std::ofstream(script) << text;
+  const std::string cmd = "gnuplot '" + script.string() + "'";
+  if (std::system(cmd.c_str()) != 0)
+    throw std::runtime_error("gnuplot failed on " + script.string());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Plans a jump and verifies it in the Simbody simulation."};
+  std::string task = "forward", csv_path, plot_path, planner_config, sim_config;
+  std::optional<double> v0;
+  std::uint64_t seed = 1;
+  int threads = 2;
+  bool json_out = false;
+  app.add_option("--task", task, "forward | vertical | backflip");
+  app.add_option("--v0", v0, "run-up speed [m/s]");
+  app.add_option("--seed", seed, "planner seed");
+  app.add_option("--threads", threads, "planner threads")->check(CLI::Range(1, 64));
+  app.add_option("--config", planner_config, "planner settings YAML");
+  app.add_option("--sim-config", sim_config, "simulation settings YAML (sim/config layout)");
+  app.add_option("--csv", csv_path, "write telemetry CSV here");
+  app.add_option("--plot", plot_path, "write a PNG figure here (gnuplot)");
+  app.add_flag("--json", json_out, "print JSON");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    const auto robot = wj::model::RobotModel::loadDefault();
+    const pl::JumpPlanner planner(robot, planner_config.empty()
+                                             ? pl::PlannerSettings{}
+                                             : pl::PlannerSettings::fromYaml(planner_config));
+    const pl::Scenario sc = pl::makePreset(planner, task, v0);
+    pl::PlanOptions opts;
+    opts.seed = seed;
+    opts.threads = threads;
+    const pl::PlannerResult r = planner.plan(sc.task, sc.initial, opts);
+    if (!r.evaluation.valid) throw std::runtime_error("the planner found no valid trajectory");
+
+    sm::VerifierSettings vs;
+    if (!sim_config.empty()) vs.sim = sm::loadSimSettings(sim_config);
+    const sm::Verifier verifier(robot, vs);
+    sm::Scenario scenario;
+    scenario.name = task;
+    if (sc.task.obstacle)
+      scenario.terrain = sm::Terrain::wall(sc.task.obstacle->x_min, sc.task.obstacle->x_max,
+                                           sc.task.obstacle->height);
+    sm::TelemetryRecorder recorder;
+    const sm::VerificationReport v = verifier.verify(r.plan, scenario, recorder.callback());
+    if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";
+    if (!csv_path.empty()) {
+      std::ofstream out(csv_path);
+      if (!out) throw std::runtime_error("cannot write " + csv_path);
+      recorder.writeCsv(out);
+    }
+    if (!plot_path.empty()) plot(plot_path, csv_path, r.plan, robot);
+
+    const pl::JumpOutcome& p = r.evaluation.predicted;
+    const pl::JumpOutcome& s = v.measured;
+    std::array<double, 4> sim_torque{}, sim_speed{}, limit_torque{}, limit_speed{};
+    for (int j = 0; j < wj::model::kNumJoints; ++j) {
+      const int kind = j % wj::model::kJointsPerLeg;
+      sim_torque[kind] = std::max(sim_torque[kind], v.joints[j].max_abs_torque_nm);
+      sim_speed[kind] = std::max(sim_speed[kind], v.joints[j].max_abs_speed_rad_s);
+      limit_torque[kind] = robot.joints()[j].actuator.peak_torque_nm;
+      limit_speed[kind] = robot.joints()[j].actuator.no_load_speed_rad_s;
+    }
+    if (json_out) {
+      json j;
+      j["plan"] = pl::reportJson(sc, r);
+      j["predicted"] = outcomeJson(p);
+      j["simulated"] = outcomeJson(s);
+      j["verification"] = {{"passed", v.passed},
+                           {"reasons", v.reasons},
+                           {"landed_upright", v.landed_upright},
+                           {"max_envelope_ratio", v.max_envelope_ratio},
+                           {"apex_height_error_m", v.apex_height_error_m},
+                           {"touchdown_dx_error_m", v.touchdown_dx_error_m},
+                           {"max_base_z_m", v.max_base_z_m}};
+      const char* kinds[4] = {"haa", "hfe", "kfe", "wheel"};
+      for (int k = 0; k < 4; ++k)
+        j["simulated_max"][kinds[k]] = {{"torque_nm", sim_torque[k]},
+                                        {"speed_rad_s", sim_speed[k]},
+                                        {"torque_limit_nm", limit_torque[k]},
+                                        {"speed_limit_rad_s", limit_speed[k]}};
+      std::cout << j.dump(2) << "\n";
+    } else {
+      std::cout << pl::reportText(sc, r) << std::fixed << std::setprecision(3)
+                << "\n                         planned   simulated\n"
+                << "  take-off t [s]        " << std::setw(8) << p.takeoff.t << "   "
+                << std::setw(8) << s.takeoff.t << "\n  apex CoM z [m]        " << std::setw(8)
+                << p.apex.state.z << "   " << std::setw(8) << s.apex.state.z
+                << "\n  apex base z [m]       " << std::setw(8) << p.apex.base_z << "   "
+                << std::setw(8) << v.max_base_z_m << "\n  apex dx [m]           " << std::setw(8)
+                << p.apex.state.x << "   " << std::setw(8) << s.apex.state.x
+                << "\n  touchdown t [s]       " << std::setw(8) << p.touchdown.t << "   "
+                << std::setw(8) << s.touchdown.t << "\n  touchdown dx [m]      " << std::setw(8)
+                << p.touchdown.state.x << "   " << std::setw(8) << s.touchdown.state.x
+                << "\n  touchdown pitch [rad] " << std::setw(8) << p.touchdown.state.pitch << "   "
+                << std::setw(8) << s.touchdown.state.pitch << "\n  obstacle clearance [m] "
+                << std::setw(7) << p.min_obstacle_clearance << "   " << std::setw(8)
+                << s.min_obstacle_clearance << "\n\n  simulated max |tau| / limit [Nm]:  haa "
+                << sim_torque[0] << "/" << limit_torque[0] << "  hfe " << sim_torque[1] << "/"
+                << limit_torque[1] << "  kfe " << sim_torque[2] << "/" << limit_torque[2]
+                << "  wheel " << sim_torque[3] << "/" << limit_torque[3]
+                << "\n  simulated max |qd| / limit [rad/s]: haa " << sim_speed[0] << "/"
+                << limit_speed[0] << "  hfe " << sim_speed[1] << "/" << limit_speed[1] << "  kfe "
+                << sim_speed[2] << "/" << limit_speed[2] << "  wheel " << sim_speed[3] << "/"
+                << limit_speed[3] << "\n  verification: " << (v.passed ? "PASSED" : "FAILED")
+                << "\n";
+      for (const auto& reason : v.reasons) std::cout << "    - " << reason << "\n";
+      if (!csv_path.empty()) std::cout << "  telemetry: " << csv_path << "\n";
+      if (!plot_path.empty()) std::cout << "  figure: " << plot_path << "\n";
+    }
+    return v.passed ? 0 : 3;
+  } catch (const std::exception& e) {
+    std::cerr << "sim_jump: " << e.what() << "\n";
+    return 2;
+  }
+}
