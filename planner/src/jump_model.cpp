@@ -186,7 +186,8 @@ struct PairSample {
 
 struct Sample {
   double t = 0.0;
-  double t1 = 0.0;  // end of the four-wheel phase
+  double t1 = 0.0;                              // end of the four-wheel phase
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();  // CoM in the base frame (x-z)
   PlanarState s;
   PairSample hind, front;
 };
@@ -295,7 +296,7 @@ struct JumpModelAccess {
     if (S.two_step) {
       // The front legs hold their t1 posture relative to the body once lifted.
       Sample smp;
-      contactSample(M, S, S.t1, smp, /*phase2=*/false);
+      contactSample(M, S, S.t1, smp, /*phase2=*/false, M.c0_);
       S.front_b_t1 = M.leg_.forward(smp.front.q);
       S.front_wheel_rate_t1 = smp.front.wheel_rate;
     }
@@ -326,66 +327,152 @@ struct JumpModelAccess {
   }
 
   // Kinematics and statics of both pairs at time t of the take-off.
-  static void contactSample(const JumpModel& M, const Solved& S, double t, Sample& out,
-                            bool phase2) {
+  // The CoM in the base frame and its Jacobians with respect to each pair's (HFE, KFE).
+  struct ComOffset {
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    std::array<Eigen::Matrix2d, 2> C{};  // d c / d q_pair, pair 0 hind, 1 front
+  };
+
+  static ComOffset comOffset(const JumpModel& M, const LegPose& hind, const LegPose& front) {
+    // R_y(q) v = (c x + s z, -s x + c z) and its derivative (-s x + c z, -c x - s z).
+    auto Rv = [](double sn, double cs, const Eigen::Vector2d& v) {
+      return Eigen::Vector2d(cs * v.x() + sn * v.y(), -sn * v.x() + cs * v.y());
+    };
+    auto dRv = [](double sn, double cs, const Eigen::Vector2d& v) {
+      return Eigen::Vector2d(-sn * v.x() + cs * v.y(), -cs * v.x() - sn * v.y());
+    };
+    ComOffset out;
+    Eigen::Vector2d first = M.moment_fixed_;
+    const double l1 = M.leg_.l1;
+    for (int pair = 0; pair < 2; ++pair) {
+      const LegPose& P = pair == 0 ? hind : front;
+      const JumpModel::Geometry& g = pair == 0 ? M.hind_ : M.front_;
+      const Eigen::Vector2d knee(-l1 * P.s1, -l1 * P.c1), dknee(-l1 * P.c1, l1 * P.s1);
+      first += 2.0 * (g.m_thigh * (g.hfe_b + Rv(P.s1, P.c1, g.c_thigh)) +
+                      g.m_lower * (g.hfe_b + knee + Rv(P.s12, P.c12, g.c_lower)));
+      out.C[pair].col(0) = 2.0 / M.mass_ *
+                           (g.m_thigh * dRv(P.s1, P.c1, g.c_thigh) +
+                            g.m_lower * (dknee + dRv(P.s12, P.c12, g.c_lower)));
+      out.C[pair].col(1) = 2.0 / M.mass_ * g.m_lower * dRv(P.s12, P.c12, g.c_lower);
+    }
+    out.c = first / M.mass_;
+    return out;
+  }
+
+  static LegPose poseOf(const Eigen::Vector2d& q) {
+    LegPose p;
+    p.q = q;
+    p.s1 = std::sin(q[0]);
+    p.c1 = std::cos(q[0]);
+    p.s12 = std::sin(q[0] + q[1]);
+    p.c12 = std::cos(q[0] + q[1]);
+    return p;
+  }
+
+  // Kinematics and statics of both pairs at time t of the take-off. The wheel axles are where
+  // the contact model puts them; the base follows from the CoM and the posture-dependent CoM
+  // offset c(q), found by a fixed-point iteration warm-started from `c_guess`.
+  static void contactSample(const JumpModel& M, const Solved& S, double t, Sample& out, bool phase2,
+                            const Eigen::Vector2d& c_guess) {
     out.t = t;
     out.t1 = S.t1;
     PlanarState s;
-    Poly fHx, fHz, fFx, fFz;
     double dH = M.d_hind_, dHdot = 0.0;
+    const double local = phase2 ? t - S.t1 : t;
     if (!phase2) {
       s = {S.X1(t), S.Z1(t), S.P1(t), S.VX1(t), S.VZ1(t), S.W1(t)};
     } else {
-      const double tau = t - S.t1;
-      s = {S.X2(tau), S.Z2(tau), S.P2(tau), S.VX2(tau), S.VZ2(tau), S.W2(tau)};
-      dH = S.dH2(tau);
-      dHdot = S.ddH2(tau);
+      s = {S.X2(local), S.Z2(local), S.P2(local), S.VX2(local), S.VZ2(local), S.W2(local)};
+      dH = S.dH2(local);
+      dHdot = S.ddH2(local);
     }
     out.s = s;
-    const double local = phase2 ? t - S.t1 : t;
+    const double r = M.wheel_radius_;
+    const Rot2 R(s.pitch);
+    const Eigen::Vector2d com(s.x, s.z), vcom(s.vx, s.vz);
+    // Axle positions relative to the CoM in the base frame, and their rates.
+    auto relative = [&](const Eigen::Vector2d& axle, const Eigen::Vector2d& v, Eigen::Vector2d& rel,
+                        Eigen::Vector2d& rel_dot) {
+      rel = R.transposeTimes(axle - com);
+      rel_dot = R.transposeTimes(v - vcom) + s.pitch_rate * Eigen::Vector2d(rel.y(), -rel.x());
+    };
+    PairSample& H = out.hind;
+    PairSample& F = out.front;
+    H = PairSample{};
+    F = PairSample{};
+    H.contact = true;
+    H.axle = Eigen::Vector2d(s.x + dH, r);
+    const Eigen::Vector2d vH(s.vx + dHdot, 0.0);
+    Eigen::Vector2d relH, relH_dot, relF = Eigen::Vector2d::Zero(),
+                                    relF_dot = Eigen::Vector2d::Zero();
+    relative(H.axle, vH, relH, relH_dot);
+    F.contact = !phase2;
+    if (F.contact) {
+      F.axle = Eigen::Vector2d(s.x + M.d_front_, r);
+      relative(F.axle, Eigen::Vector2d(s.vx, 0.0), relF, relF_dot);
+    }
+    LegPose pH, pF;
+    if (phase2) pF = M.leg_.inversePose(S.front_b_t1, &F.reach);
+    Eigen::Vector2d c = c_guess;
+    ComOffset co;
+    for (int it = 0; it < 3; ++it) {
+      pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach);
+      if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach);
+      co = comOffset(M, pH, pF);
+      c = co.c;
+    }
+    pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach);
+    if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach);
+    co = comOffset(M, pH, pF);
+    out.c = co.c;
+    H.q = pH.q;
+    F.q = pF.q;
+    // Joint rates: b_i = rel_i - hfe_i + c(q) and b_i' = J_i q_i', so
+    // (J_i - C_i) q_i' - C_j q_j' = rel_i' for the pairs in contact.
+    const Eigen::Matrix2d JH = M.leg_.jacobian(pH);
+    if (F.contact) {
+      const Eigen::Matrix2d JF = M.leg_.jacobian(pF);
+      Eigen::Matrix4d A;
+      A << JH - co.C[0], -co.C[1], -co.C[0], JF - co.C[1];
+      Eigen::Vector4d rhs;
+      rhs << relH_dot, relF_dot;
+      const Eigen::PartialPivLU<Eigen::Matrix4d> lu(A);
+      const Eigen::Vector4d qd = std::abs(lu.determinant()) > 1e-12
+                                     ? Eigen::Vector4d(lu.solve(rhs))
+                                     : Eigen::Vector4d::Constant(1e3);
+      H.qd = qd.head<2>();
+      F.qd = qd.tail<2>();
+    } else {
+      const Eigen::Matrix2d A = JH - co.C[0];
+      H.qd = std::abs(A.determinant()) > 1e-12 ? Eigen::Vector2d(A.inverse() * relH_dot)
+                                               : Eigen::Vector2d(1e3, 1e3);
+      F.qd.setZero();
+      F.axle = com + R * (-c + M.front_.hfe_b + S.front_b_t1);
+      F.wheel_rate = S.front_wheel_rate_t1;
+    }
     const Eigen::Vector2d fH = phase2 ? Eigen::Vector2d(S.fHx2(local), S.fHz2(local))
                                       : Eigen::Vector2d(S.fHx1(local), S.fHz1(local));
-    pairSample(M, s, M.hind_, dH, dHdot, 0.5 * fH, out.hind);
-    if (!phase2) {
+    statics(M, s, R, pH, 0.5 * fH, vH.x(), H);
+    if (F.contact) {
       const Eigen::Vector2d fF(S.fFx1(local), S.fFz1(local));
-      pairSample(M, s, M.front_, M.d_front_, 0.0, 0.5 * fF, out.front);
-    } else {
-      PairSample& p = out.front;
-      p = PairSample{};
-      p.contact = false;
-      p.q = M.leg_.inverse(S.front_b_t1, &p.reach);
-      p.wheel_rate = S.front_wheel_rate_t1;
-      p.axle = Eigen::Vector2d(s.x, s.z) + rot(s.pitch, M.front_.hip_rel_com + S.front_b_t1);
+      statics(M, s, R, pF, 0.5 * fF, s.vx, F);
     }
   }
 
-  static void pairSample(const JumpModel& M, const PlanarState& s, const JumpModel::Geometry& geo,
-                         double d, double d_rate, const Eigen::Vector2d& f, PairSample& p) {
+  // Joint torques of a leg in contact (massless links, force at the contact point), and the
+  // wheel's rate and torque.
+  static void statics(const JumpModel& M, const PlanarState& s, const Rot2& R, const LegPose& pose,
+                      const Eigen::Vector2d& f, double axle_vx, PairSample& p) {
     const double r = M.wheel_radius_;
-    p.contact = true;
     p.f = f;
-    p.axle = Eigen::Vector2d(s.x + d, r);
-    const Eigen::Vector2d axle_vel(s.vx + d_rate, 0.0);
-    const Rot2 R(s.pitch);
-    const Eigen::Vector2d hip_rel = R * geo.hip_rel_com;
-    const Eigen::Vector2d hip = Eigen::Vector2d(s.x, s.z) + hip_rel;
-    const Eigen::Vector2d hip_vel =
-        Eigen::Vector2d(s.vx, s.vz) + s.pitch_rate * Eigen::Vector2d(-hip_rel.y(), hip_rel.x());
-    const Eigen::Vector2d b = R.transposeTimes(p.axle - hip);
-    const Eigen::Vector2d b_dot =
-        R.transposeTimes(axle_vel - hip_vel) + s.pitch_rate * Eigen::Vector2d(b.y(), -b.x());
-    const LegPose pose = M.leg_.inversePose(b, &p.reach);
-    p.q = pose.q;
-    const Eigen::Matrix2d J = M.leg_.jacobian(pose);
-    const double det = J.determinant();
-    p.qd = std::abs(det) > 1e-9 ? Eigen::Vector2d(J.inverse() * b_dot) : Eigen::Vector2d(1e3, 1e3);
-    const Eigen::Vector2d contact_b = b + R.transposeTimes(Eigen::Vector2d(0.0, -r));
+    const Eigen::Vector2d contact_b =
+        M.leg_.forward(pose.q) + R.transposeTimes(Eigen::Vector2d(0.0, -r));
     const Eigen::Vector2d f_b = R.transposeTimes(f);
     p.tau = M.leg_.balancingTorque(pose, contact_b, f_b);
     p.haa_fz = f_b.y();
     // Rolling without slip: wheel rate about +y is v_axle / r; the shank turns at
     // -pitch_rate + qd1 + qd2 about +y (nose-up pitch is a rotation about -y).
-    p.wheel_rate = axle_vel.x() / r - (-s.pitch_rate + p.qd[0] + p.qd[1]);
+    p.wheel_rate = axle_vx / r - (-s.pitch_rate + p.qd[0] + p.qd[1]);
     p.wheel_tau = r * f.x();
   }
 
@@ -438,7 +525,7 @@ struct JumpModelAccess {
            smp.t, base + 3);
       sink(ConstraintClass::WheelSpeed, M.env_wheel_.speedMargin(p.wheel_rate), smp.t, base + 3);
     }
-    emitBody(M, smp.t, smp.s, &smp, nullptr, sink);
+    emitBody(M, smp.t, smp.s, smp.c, &smp, nullptr, sink);
   }
 
   // Clearance of a disc (centre p, radius r) to the obstacle. While the robot is on the ground
@@ -453,8 +540,9 @@ struct JumpModelAccess {
   // Body height and obstacle margins at one instant. In take-off the wheel axles come from the
   // sample; in flight from the blended leg posture `flight_q` (HFE, KFE) per pair.
   template <class Sink>
-  static void emitBody(const JumpModel& M, double t, const PlanarState& s, const Sample* smp,
-                       const std::array<Eigen::Vector2d, 2>* flight_q, Sink& sink) {
+  static void emitBody(const JumpModel& M, double t, const PlanarState& s, const Eigen::Vector2d& c,
+                       const Sample* smp, const std::array<Eigen::Vector2d, 2>* flight_q,
+                       Sink& sink) {
     const Eigen::Vector2d com(s.x, s.z);
     double lowest = kInf;
     double clearance = kInf;
@@ -464,8 +552,8 @@ struct JumpModelAccess {
       // 4 corners and 4 edge midpoints of the base box.
       static constexpr std::array<std::array<double, 2>, 8> kPts = {
           {{1, 1}, {1, -1}, {-1, 1}, {-1, -1}, {0, 1}, {0, -1}, {1, 0}, {-1, 0}}};
-      const Eigen::Vector2d pb = M.base_rel_com_ + Eigen::Vector2d(kPts[i][0] * M.box_half_.x(),
-                                                                   kPts[i][1] * M.box_half_.y());
+      const Eigen::Vector2d pb =
+          -c + Eigen::Vector2d(kPts[i][0] * M.box_half_.x(), kPts[i][1] * M.box_half_.y());
       const Eigen::Vector2d p = com + R * pb;
       lowest = std::min(lowest, p.y());
       if (box) clearance = std::min(clearance, obstacleMargin(*box, p, 0.0, smp != nullptr));
@@ -478,7 +566,7 @@ struct JumpModelAccess {
           axle = pair == 0 ? smp->hind.axle : smp->front.axle;
         } else {
           const auto& geo = pair == 0 ? M.hind_ : M.front_;
-          axle = com + R * (geo.hip_rel_com + M.leg_.forward((*flight_q)[pair]));
+          axle = com + R * (-c + geo.hfe_b + M.leg_.forward((*flight_q)[pair]));
         }
         clearance =
             std::min(clearance, obstacleMargin(*box, axle, M.wheel_radius_, smp != nullptr));
@@ -488,14 +576,22 @@ struct JumpModelAccess {
   }
 
   // Blended (HFE, KFE) of a pair in flight at time t.
+  // (HFE, KFE) of a pair in flight at time t: from the take-off posture to the tuck posture
+  // over [0, tuck_end], held, then to the landing posture over [extend_start, extend_end]
+  // (fractions of the flight), with smoothstep blends.
   static Eigen::Vector2d flightPosture(const JumpModel& M, const Solved& S,
                                        const Eigen::Vector2d& q_takeoff, double t,
                                        Eigen::Vector2d* qd) {
-    const double T = M.settings_.flight_blend_fraction * S.Tf;
-    const double xi = (t - S.t2) / T;
-    const Eigen::Vector2d delta = M.q_landing_ - q_takeoff;
-    if (qd) *qd = delta * smoothstepRate(xi) / T;
-    return q_takeoff + delta * smoothstep(xi);
+    const auto& st = M.settings_;
+    const double xi = (t - S.t2) / S.Tf;
+    const Eigen::Vector2d q_tuck(st.tuck_hfe_rad, st.tuck_kfe_rad);
+    auto blend = [&](const Eigen::Vector2d& from, const Eigen::Vector2d& to, double a, double b) {
+      const double T = (b - a) * S.Tf, u = (xi - a) / (b - a);
+      if (qd) *qd = (to - from) * smoothstepRate(u) / T;
+      return Eigen::Vector2d(from + (to - from) * smoothstep(u));
+    };
+    if (xi < st.tuck_end_fraction) return blend(q_takeoff, q_tuck, 0.0, st.tuck_end_fraction);
+    return blend(q_tuck, M.q_landing_, st.extend_start_fraction, st.extend_end_fraction);
   }
 
   // Sweeps every constraint sample of a solved take-off and flight through `sink`, and
@@ -511,6 +607,7 @@ struct JumpModelAccess {
     const auto& st = M.settings_;
     double energy = 0.0, prev_power = 0.0, prev_t = 0.0;
     Sample smp;
+    Eigen::Vector2d c_guess = M.c0_;
     Eigen::Vector2d q_to_hind, q_to_front;
     const int n_phases = S.two_step ? 2 : 1;
     for (int phase = 0; phase < n_phases; ++phase) {
@@ -519,7 +616,8 @@ struct JumpModelAccess {
       const double T = phase == 0 ? S.t1 : S.T2;
       for (int k = 0; k < n; ++k) {
         const double t = t_start + T * k / (n - 1);
-        contactSample(M, S, t, smp, phase == 1);
+        contactSample(M, S, t, smp, phase == 1, c_guess);
+        c_guess = smp.c;
         emitContact(M, smp, sink);
         double power = 0.0;
         for (const PairSample* p : {&smp.hind, &smp.front}) {
@@ -553,7 +651,8 @@ struct JumpModelAccess {
       const PlanarState s = ballisticG(S.takeoff, t - S.t2, st.gravity);
       const std::array<Eigen::Vector2d, 2> q = {flightPosture(M, S, q_to_hind, t, nullptr),
                                                 flightPosture(M, S, q_to_front, t, nullptr)};
-      emitBody(M, t, s, nullptr, &q, sink);
+      const Eigen::Vector2d c = comOffset(M, poseOf(q[0]), poseOf(q[1])).c;
+      emitBody(M, t, s, c, nullptr, &q, sink);
     }
     if (M.task_.obstacle) {
       // Clearing the obstacle means landing beyond it: the rear wheel touches down past its
@@ -561,7 +660,7 @@ struct JumpModelAccess {
       const PlanarState& td = S.touchdown;
       const Eigen::Vector2d axle =
           Eigen::Vector2d(td.x, td.z) +
-          Rot2(td.pitch) * (M.hind_.hip_rel_com + M.leg_.forward(M.q_landing_));
+          Rot2(td.pitch) * (-M.c_land_ + M.hind_.hfe_b + M.leg_.forward(M.q_landing_));
       sink(ConstraintClass::ObstacleClearance,
            axle.x() - M.wheel_radius_ - M.task_.obstacle->x_max - st.obstacle_margin_m, S.t3, -1);
     }
@@ -573,17 +672,21 @@ struct JumpModelAccess {
     const auto& tgt = M.task_.target;
     const PlanarState& to = S.takeoff;
     const double g = M.settings_.gravity;
-    auto event = [&](double t, const PlanarState& s) {
+    auto event = [&](double t, const PlanarState& s, const Eigen::Vector2d& c) {
       JumpEvent ev;
       ev.t = t;
       ev.state = s;
-      ev.base_z = s.z + rot(s.pitch, M.base_rel_com_).y();
+      ev.base_z = s.z + rot(s.pitch, -c).y();
       return ev;
     };
-    out.takeoff = event(S.t2, to);
+    // The base at take-off from the take-off posture; in flight the legs are taken at the
+    // landing posture they are moving to.
+    Sample smp;
+    contactSample(M, S, S.t2, smp, S.two_step, M.c0_);
+    out.takeoff = event(S.t2, to, smp.c);
     const double t_apex = std::max(to.vz / g, 0.0);
-    out.apex = event(S.t2 + t_apex, ballisticG(to, t_apex, g));
-    out.touchdown = event(S.t3, S.touchdown);
+    out.apex = event(S.t2 + t_apex, ballisticG(to, t_apex, g), M.c_land_);
+    out.touchdown = event(S.t3, S.touchdown, M.c_land_);
     const PlanarState& s0 = M.initial_;
     const PlanarState& at = tgt.event == TargetEvent::Apex ? out.apex.state : S.touchdown;
     e[0] = at.x - s0.x - tgt.dx;
@@ -622,19 +725,48 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   const model::Inertia inertia = robot_.calcCompositeInertia(q0);
   inertia_ = inertia.inertia_com(1, 1);
   const Eigen::Vector2d com_b(inertia.com.x(), inertia.com.z());
-  base_rel_com_ = -com_b;
+
   box_half_ = Eigen::Vector2d(robot_.baseBoxSize().x() / 2, robot_.baseBoxSize().z() / 2);
   const auto X = robot_.calcLinkPoses(q0);
   auto geometry = [&](Leg leg) {
     const auto& g = robot_.legGeometry(leg);
     Geometry geo;
     const Eigen::Vector3d hfe = g.p_BH + g.p_HT;
-    geo.hip_rel_com = Eigen::Vector2d(hfe.x(), hfe.z()) - com_b;
+    geo.hfe_b = Eigen::Vector2d(hfe.x(), hfe.z());
+    // Leg link masses in the sagittal plane (HAA at 0): thigh in its frame; shank and wheel
+    // together in the shank frame (the wheel's CoM is on its axle).
+    const auto& thigh = robot_.links()[robot_.joint(leg, JointKind::HFE).child_link].inertia;
+    const auto& shank = robot_.links()[robot_.joint(leg, JointKind::KFE).child_link].inertia;
+    const auto& wheel_j = robot_.joint(leg, JointKind::Wheel);
+    const auto& wheel = robot_.links()[wheel_j.child_link].inertia;
+    geo.m_thigh = thigh.mass;
+    geo.c_thigh = Eigen::Vector2d(thigh.com.x(), thigh.com.z());
+    geo.m_lower = shank.mass + wheel.mass;
+    const Eigen::Vector3d wheel_c = wheel_j.X_PJ * wheel.com;
+    geo.c_lower = (shank.mass * Eigen::Vector2d(shank.com.x(), shank.com.z()) +
+                   wheel.mass * Eigen::Vector2d(wheel_c.x(), wheel_c.z())) /
+                  geo.m_lower;
     geo.haa_lever = g.p_HT.y() + g.wheel_lateral_offset;
     return geo;
   };
   hind_ = geometry(Leg::LH);
   front_ = geometry(Leg::LF);
+  // The parts that do not move with the sagittal joints: the base and the hip (HAA) links.
+  mass_fixed_ = 0.0;
+  moment_fixed_.setZero();
+  for (std::size_t i = 0; i < robot_.links().size(); ++i) {
+    const auto& link = robot_.links()[i];
+    const bool fixed =
+        link.parent_joint < 0 || robot_.joints()[link.parent_joint].kind == JointKind::HAA;
+    if (!fixed) continue;
+    const Eigen::Vector3d p = X[i] * link.inertia.com;
+    mass_fixed_ += link.inertia.mass;
+    moment_fixed_ += link.inertia.mass * Eigen::Vector2d(p.x(), p.z());
+  }
+  c0_ = comInBase(Eigen::Vector2d(q0[model::jointIndex(Leg::LH, JointKind::HFE)],
+                                  q0[model::jointIndex(Leg::LH, JointKind::KFE)]),
+                  Eigen::Vector2d(q0[model::jointIndex(Leg::LF, JointKind::HFE)],
+                                  q0[model::jointIndex(Leg::LF, JointKind::KFE)]));
   auto axle_rel_com = [&](Leg leg) {
     const Eigen::Vector3d p = X[robot_.joint(leg, JointKind::Wheel).child_link].translation();
     return rot(init_input_.pitch, Eigen::Vector2d(p.x(), p.z()) - com_b);
@@ -657,6 +789,7 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
     q_land[model::jointIndex(leg, JointKind::KFE)] = q_landing_[1];
   }
   z_land_ = standingComHeight(robot_, q_land);
+  c_land_ = comInBase(q_landing_, q_landing_);
   if (task_.obstacle && task_.obstacle->x_min <= d_front_ + wheel_radius_)
     throw std::invalid_argument("task.obstacle.x_min must be ahead of the front wheels (> " +
                                 std::to_string(d_front_ + wheel_radius_) +
@@ -683,6 +816,9 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   set(kT2MinusT1, s.t2_minus_t1_s);
   if (task_.mode == TakeoffMode::Simultaneous) {
     for (int i : {kMidDx, kMidDz, kMidDpitch, kT2MinusT1}) lower_[i] = upper_[i] = 0.0;
+  } else {
+    set(kTakeoffDpitch, s.two_step_takeoff_dpitch_rad);
+    set(kTakeoffRate, s.two_step_takeoff_pitch_rate_rad_s);
   }
   const int per_contact = 2 * 15 + 1 + (task_.obstacle ? 1 : 0);
   const int per_flight = 1 + (task_.obstacle ? 1 : 0);
@@ -690,6 +826,13 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
       per_contact *
           (s.samples_phase1 + (task_.mode == TakeoffMode::TwoStep ? s.samples_phase2 : 0)) +
       per_flight * s.samples_flight + (task_.obstacle ? 1 : 0);
+}
+
+Eigen::Vector2d JumpModel::comInBase(const Eigen::Vector2d& q_hind,
+                                     const Eigen::Vector2d& q_front) const {
+  return JumpModelAccess::comOffset(*this, JumpModelAccess::poseOf(q_hind),
+                                    JumpModelAccess::poseOf(q_front))
+      .c;
 }
 
 double JumpModel::standingComHeight(const model::RobotModel& robot, const Eigen::VectorXd& q) {
@@ -880,6 +1023,7 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const 
   plan.tau.setZero(N, model::kNumJoints);
 
   Sample smp;
+  Eigen::Vector2d c_guess = c0_;
   Eigen::Vector2d q_to[2], wheel_to;
   for (int k = 0; k < N; ++k) {
     const double t = std::min(k * plan.dt, S.t3);
@@ -888,7 +1032,8 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const 
     PlanarState s;
     if (t <= S.t2) {
       const bool phase2 = S.two_step && t > S.t1;
-      JumpModelAccess::contactSample(*this, S, t, smp, phase2);
+      JumpModelAccess::contactSample(*this, S, t, smp, phase2, c_guess);
+      c_guess = smp.c;
       s = smp.s;
       int i = 0;
       for (const PairSample* p : {&smp.hind, &smp.front}) {
@@ -912,7 +1057,7 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const 
       wheel_to = Eigen::Vector2d(smp.hind.wheel_rate, smp.front.wheel_rate);
     } else {
       s = JumpModelAccess::ballisticG(S.takeoff, t - S.t2, settings_.gravity);
-      const double xi = (t - S.t2) / (settings_.flight_blend_fraction * S.Tf);
+      const double xi = (t - S.t2) / (settings_.extend_end_fraction * S.Tf);
       for (int pair = 0; pair < 2; ++pair) {
         q[pair] = JumpModelAccess::flightPosture(*this, S, q_to[pair], t, &qd[pair]);
         // Wheels spin towards the ground speed they will meet at touchdown.

@@ -98,8 +98,10 @@ void PlannerSettings::validate() const {
   check(obstacle_margin_m >= 0, "physics.obstacle_margin_m", ">= 0", obstacle_margin_m);
   check(actuator_torque_scale > 0 && actuator_torque_scale <= 10, "physics.actuator_torque_scale",
         "in (0, 10]", actuator_torque_scale);
-  check(flight_blend_fraction > 0 && flight_blend_fraction <= 1, "postures.flight_blend_fraction",
-        "in (0, 1]", flight_blend_fraction);
+  check(tuck_end_fraction > 0 && tuck_end_fraction < extend_start_fraction,
+        "postures.tuck_end_fraction", "in (0, extend_start_fraction)", tuck_end_fraction);
+  check(extend_start_fraction < extend_end_fraction && extend_end_fraction <= 1,
+        "postures.extend_end_fraction", "in (extend_start_fraction, 1]", extend_end_fraction);
   check(samples_phase1 >= 4 && samples_phase1 <= 1000, "sampling.samples_phase1", "in [4, 1000]",
         samples_phase1);
   check(samples_phase2 >= 4 && samples_phase2 <= 1000, "sampling.samples_phase2", "in [4, 1000]",
@@ -112,17 +114,20 @@ void PlannerSettings::validate() const {
   check(t2_minus_t1_s[0] > 0.01, "bounds.t2_minus_t1_s[0]", "> 0.01 s", t2_minus_t1_s[0]);
   check(takeoff_vz_m_s[0] > 0, "bounds.takeoff_vz_m_s[0]", "> 0 (the robot must leave the ground)",
         takeoff_vz_m_s[0]);
-  for (const auto& [b, name] : {std::pair{t1_s, "bounds.t1_s"},
-                                {t2_minus_t1_s, "bounds.t2_minus_t1_s"},
-                                {mid_dx_m, "bounds.mid_dx_m"},
-                                {mid_dz_m, "bounds.mid_dz_m"},
-                                {mid_dpitch_rad, "bounds.mid_dpitch_rad"},
-                                {takeoff_dx_m, "bounds.takeoff_dx_m"},
-                                {takeoff_dz_m, "bounds.takeoff_dz_m"},
-                                {takeoff_dpitch_rad, "bounds.takeoff_dpitch_rad"},
-                                {takeoff_dvx_m_s, "bounds.takeoff_dvx_m_s"},
-                                {takeoff_vz_m_s, "bounds.takeoff_vz_m_s"},
-                                {takeoff_pitch_rate_rad_s, "bounds.takeoff_pitch_rate_rad_s"}})
+  for (const auto& [b, name] :
+       {std::pair{t1_s, "bounds.t1_s"},
+        {t2_minus_t1_s, "bounds.t2_minus_t1_s"},
+        {mid_dx_m, "bounds.mid_dx_m"},
+        {mid_dz_m, "bounds.mid_dz_m"},
+        {mid_dpitch_rad, "bounds.mid_dpitch_rad"},
+        {takeoff_dx_m, "bounds.takeoff_dx_m"},
+        {takeoff_dz_m, "bounds.takeoff_dz_m"},
+        {takeoff_dpitch_rad, "bounds.takeoff_dpitch_rad"},
+        {takeoff_dvx_m_s, "bounds.takeoff_dvx_m_s"},
+        {takeoff_vz_m_s, "bounds.takeoff_vz_m_s"},
+        {takeoff_pitch_rate_rad_s, "bounds.takeoff_pitch_rate_rad_s"},
+        {two_step_takeoff_dpitch_rad, "bounds.two_step_takeoff_dpitch_rad"},
+        {two_step_takeoff_pitch_rate_rad_s, "bounds.two_step_takeoff_pitch_rate_rad_s"}})
     checkInterval(b, name);
   for (int i = 0; i < kNumConstraintClasses; ++i)
     check(class_weight[i] > 0,
@@ -217,7 +222,11 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"stand_kfe_rad", number(s.stand_kfe_rad)},
                       {"landing_hfe_rad", number(s.landing_hfe_rad)},
                       {"landing_kfe_rad", number(s.landing_kfe_rad)},
-                      {"flight_blend_fraction", number(s.flight_blend_fraction)}});
+                      {"tuck_hfe_rad", number(s.tuck_hfe_rad)},
+                      {"tuck_kfe_rad", number(s.tuck_kfe_rad)},
+                      {"tuck_end_fraction", number(s.tuck_end_fraction)},
+                      {"extend_start_fraction", number(s.extend_start_fraction)},
+                      {"extend_end_fraction", number(s.extend_end_fraction)}});
        }},
       {"sampling",
        [&](const YAML::Node& n) {
@@ -240,7 +249,10 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"takeoff_dpitch_rad", interval(s.takeoff_dpitch_rad)},
                       {"takeoff_dvx_m_s", interval(s.takeoff_dvx_m_s)},
                       {"takeoff_vz_m_s", interval(s.takeoff_vz_m_s)},
-                      {"takeoff_pitch_rate_rad_s", interval(s.takeoff_pitch_rate_rad_s)}});
+                      {"takeoff_pitch_rate_rad_s", interval(s.takeoff_pitch_rate_rad_s)},
+                      {"two_step_takeoff_dpitch_rad", interval(s.two_step_takeoff_dpitch_rad)},
+                      {"two_step_takeoff_pitch_rate_rad_s",
+                       interval(s.two_step_takeoff_pitch_rate_rad_s)}});
        }},
       {"cost",
        [&](const YAML::Node& n) {

@@ -106,14 +106,23 @@ class JumpModel {
   /// Priority n of a class in the penalty W_n (10^(n+3) + 10^n sigma_n); 10 is the highest.
   static int classPriority(ConstraintClass c);
 
+  /// Whole-robot CoM in the base frame (x-z) with both hind legs at `q_hind` and both front
+  /// legs at `q_front` (HFE, KFE), HAA at 0: the planar counterpart of
+  /// RobotModel::calcCompositeInertia. The CoM moves in the base as the heavy wheels move.
+  Eigen::Vector2d comInBase(const Eigen::Vector2d& q_hind, const Eigen::Vector2d& q_front) const;
+
   /// CoM height of the posture `q` standing on flat ground at pitch 0 [m].
   static double standingComHeight(const model::RobotModel& robot, const Eigen::VectorXd& q);
 
  private:
   friend struct JumpModelAccess;
   struct Geometry {
-    Eigen::Vector2d hip_rel_com;  ///< HFE axis relative to the CoM, body x-z [m]
-    double haa_lever = 0.0;       ///< lateral offset HAA axis -> wheel plane, left leg [m]
+    Eigen::Vector2d hfe_b = Eigen::Vector2d::Zero();  ///< HFE axis in the base frame, x-z [m]
+    double haa_lever = 0.0;  ///< lateral offset HAA axis -> wheel plane, left leg [m]
+    double m_thigh = 0.0;    ///< thigh mass of one leg [kg]
+    Eigen::Vector2d c_thigh = Eigen::Vector2d::Zero();  ///< its CoM in the thigh frame, x-z
+    double m_lower = 0.0;                               ///< shank + wheel mass of one leg [kg]
+    Eigen::Vector2d c_lower = Eigen::Vector2d::Zero();  ///< their CoM in the shank frame, x-z
   };
 
   model::RobotModel robot_;
@@ -126,9 +135,12 @@ class JumpModel {
   double mass_ = 0.0, inertia_ = 0.0, wheel_radius_ = 0.0;
   double d_hind_ = 0.0, d_front_ = 0.0;  ///< wheel axle x offsets from the CoM at t = 0 [m]
   double z_land_ = 0.0;
-  Eigen::Vector2d base_rel_com_ = Eigen::Vector2d::Zero();  ///< base origin - CoM, body x-z
-  Eigen::Vector2d box_half_ = Eigen::Vector2d::Zero();      ///< half box size x, z
-  Eigen::Vector2d q_landing_ = Eigen::Vector2d::Zero();     ///< (HFE, KFE) landing posture
+  double mass_fixed_ = 0.0;                                 ///< base and hip links [kg]
+  Eigen::Vector2d moment_fixed_ = Eigen::Vector2d::Zero();  ///< their first moment, base x-z
+  Eigen::Vector2d c0_ = Eigen::Vector2d::Zero();         ///< CoM in the base at the initial posture
+  Eigen::Vector2d c_land_ = Eigen::Vector2d::Zero();     ///< ... and at the landing posture
+  Eigen::Vector2d box_half_ = Eigen::Vector2d::Zero();   ///< half box size x, z
+  Eigen::Vector2d q_landing_ = Eigen::Vector2d::Zero();  ///< (HFE, KFE) landing posture
   model::ActuatorEnvelope env_haa_, env_hfe_, env_kfe_, env_wheel_;
   std::array<double, 2> lim_hfe_{}, lim_kfe_{};
   Eigen::VectorXd lower_, upper_;
