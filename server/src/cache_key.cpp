@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
+#include <utility>
 
 namespace wj::server {
 
@@ -131,31 +132,47 @@ std::uint64_t CacheKey::hash() const {
   return fnv1a64(bytes());
 }
 
-// Every field that changes a plan, in a fixed order. The static_asserts fail the build when a
-// field is added to the settings, so that this hash cannot silently miss it: add the field
-// below, then update the sizes.
-std::uint64_t hashPlannerSettings(const planner::PlannerSettings& s) {
-  static_assert(sizeof(planner::PlannerSettings) == 528,
-                "PlannerSettings changed: add the new field to hashPlannerSettings()");
-  static_assert(sizeof(planner::de::Settings) == 112,
-                "de::Settings changed: add the new field to hashPlannerSettings()");
-  ByteWriter w;
-  w.put(std::uint32_t{1});  // layout version of this hash
-  for (const double v : {s.gravity, s.friction_mu, s.min_normal_force_n, s.min_body_clearance_m,
-                         s.obstacle_margin_m, s.stand_hfe_rad, s.stand_kfe_rad, s.landing_hfe_rad,
-                         s.landing_kfe_rad, s.flight_blend_fraction, s.output_dt_s})
-    w.putDouble(v);
-  for (const int v : {s.samples_phase1, s.samples_phase2, s.samples_flight}) w.put(v);
-  for (const auto* b : {&s.t1_s, &s.t2_minus_t1_s, &s.mid_dx_m, &s.mid_dz_m, &s.mid_dpitch_rad,
-                        &s.takeoff_dx_m, &s.takeoff_dz_m, &s.takeoff_dpitch_rad, &s.takeoff_dvx_m_s,
-                        &s.takeoff_vz_m_s, &s.takeoff_pitch_rate_rad_s}) {
-    w.putDouble((*b)[0]);
-    w.putDouble((*b)[1]);
+namespace {
+
+// A double rounded to 30 significant bits, so that last-bit differences between builds (FMA,
+// vectorisation) do not change the fingerprint.
+void putRounded(ByteWriter& w, double v) {
+  if (!std::isfinite(v)) {
+    w.put(static_cast<std::int64_t>(std::isnan(v) ? 1 : (v > 0 ? 2 : 3)));
+    return;
   }
-  for (const double v : s.class_weight) w.putDouble(v);
-  for (const double v : {s.energy_weight, s.tolerance_dx_m, s.tolerance_height_m,
-                         s.tolerance_pitch_rad, s.landing_pitch_tolerance_rad})
-    w.putDouble(v);
+  int exponent = 0;
+  const double mantissa = std::frexp(v, &exponent);
+  w.put(static_cast<std::int64_t>(std::llround(std::ldexp(mantissa, 30))));
+  w.put(static_cast<std::int32_t>(mantissa == 0.0 ? 0 : exponent));
+}
+
+void putEvaluation(ByteWriter& w, const planner::Evaluation& ev) {
+  w.putBool(ev.valid);
+  for (const double v : {ev.cost, ev.penalty, ev.target_cost, ev.energy_j, ev.err_dx, ev.err_height,
+                         ev.err_pitch, ev.err_landing_pitch})
+    putRounded(w, v);
+  for (const auto& m : ev.margins) {
+    putRounded(w, m.worst);
+    putRounded(w, m.t);
+    w.put(m.location);
+  }
+  for (const auto* e : {&ev.predicted.takeoff, &ev.predicted.apex, &ev.predicted.touchdown})
+    for (const double v : {e->t, e->state.x, e->state.z, e->state.pitch, e->base_z})
+      putRounded(w, v);
+}
+
+}  // namespace
+
+// The settings a plan depends on are of two kinds. The solver's (DE, restarts, polish) are
+// hashed field by field. The model's (physics, postures, sampling, bounds, cost: a struct the
+// planner keeps extending) are hashed by what they do: the search box and the evaluation of fixed
+// probe points of two canonical jumps, a dense plan, and a tiny seeded search. This also changes
+// when the planner's code changes what it computes, which makes cached solutions stale too.
+std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
+  const planner::PlannerSettings& s = jp.settings();
+  ByteWriter w;
+  w.put(std::uint32_t{3});  // layout version of this hash
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -169,9 +186,67 @@ std::uint64_t hashPlannerSettings(const planner::PlannerSettings& s) {
   w.put(d.seed);
   w.put(d.shade_memory_size);
   // d.threads and d.keep_log do not change the result (same seed, same plan at any count).
+  w.put(s.de_restarts);
   w.putBool(s.polish);
   w.put(s.polish_max_iterations);
   w.putDouble(s.polish_tolerance);
+
+  // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
+  // a box with a two-step take-off (every decision variable free).
+  planner::JumpTask up;
+  up.target = {0.0, 0.8, 0.0, planner::TargetEvent::Apex};
+  planner::JumpTask over;
+  over.target = {1.5, 0.35, 0.0, planner::TargetEvent::Touchdown};
+  over.mode = planner::TakeoffMode::TwoStep;
+  over.obstacle = planner::BoxObstacle{0.8, 0.9, 0.15};
+  planner::InitialState initial;
+  initial.q = jp.standPosture();
+  for (const auto& [task, v0] : {std::pair{up, 0.5}, std::pair{over, 2.0}}) {
+    initial.v0 = v0;
+    const planner::JumpModel model(jp.robot(), s, task, initial);
+    const Eigen::VectorXd lo = model.lowerBounds(), hi = model.upperBounds();
+    for (Eigen::Index i = 0; i < lo.size(); ++i) {
+      putRounded(w, lo[i]);
+      putRounded(w, hi[i]);
+    }
+    bool planned = false;
+    planner::Evaluation ev;
+    for (int k = 1; k <= 7; ++k) {
+      // Deterministic points spread over the box (a Weyl sequence per dimension).
+      Eigen::VectorXd u(lo.size());
+      for (Eigen::Index i = 0; i < lo.size(); ++i) {
+        const double frac =
+            std::fmod(0.5 + k * (0.6180339887498949 + 0.1 * static_cast<double>(i)), 1.0);
+        u[i] = lo[i] + frac * (hi[i] - lo[i]);
+      }
+      model.evaluate(u, ev);
+      putEvaluation(w, ev);
+      if (ev.valid && !planned) {
+        const planner::JumpPlan plan = model.buildPlan(u);
+        w.put(plan.numSamples());
+        for (const double v : {plan.dt, plan.t1, plan.t2, plan.t3}) putRounded(w, v);
+        if (plan.numSamples() > 0) {
+          for (Eigen::Index j = 0; j < plan.q.cols(); ++j) {
+            putRounded(w, plan.q(plan.q.rows() - 1, j));
+            putRounded(w, plan.q(plan.q.rows() / 2, j));
+            putRounded(w, plan.tau(0, j));
+          }
+        }
+        planned = true;
+      }
+    }
+  }
+  // A tiny seeded search: the DE, its restarts and the candidate bookkeeping.
+  planner::PlanOptions o;
+  o.seed = 1;
+  o.max_evaluations = 3 * s.de.population_size;
+  o.threads = 1;
+  o.polish = false;
+  initial.v0 = 0.5;
+  const planner::PlannerResult r = jp.plan(up, initial, o);
+  w.put(r.de.evaluations);
+  for (Eigen::Index i = 0; i < r.u.size(); ++i) putRounded(w, r.u[i]);
+  putRounded(w, r.final_cost);
   return fnv1a64(w.bytes());
 }
 

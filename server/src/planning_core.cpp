@@ -151,7 +151,7 @@ PlanningCore::PlanningCore(const ServerConfig& config, model::RobotModel robot,
       planner_(std::move(robot), std::move(settings)),
       verifier_(config.verification.enabled ? std::move(verifier) : nullptr),
       quantizer_(config.cache, planner_.robot().contentHash(),
-                 fnv1a64(std::to_string(hashPlannerSettings(planner_.settings())),
+                 fnv1a64(std::to_string(hashPlannerSettings(planner_)),
                          verifier_ ? verifier_->settingsHash() : 0)),
       cache_(config.cache.max_memory_entries, std::move(store)),
       hit_pool_("wj-hit", config.executor.hit_workers,
@@ -350,7 +350,11 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
   const double search = remaining - verify_reserve;
   const auto& settings = planner_.settings();
   const bool polish = settings.polish && search >= config_.planner.polish_min_budget_s;
-  double de_budget = search - (polish ? config_.planner.polish_reserve_s : 0.0);
+  // The DE checks its clock once per generation, so it may overrun its budget by one; two
+  // generations (measured on earlier plans) are kept back, plus the time to build the plans.
+  const double generation_s = generation_ms_.load() / 1e3;
+  double de_budget =
+      search - (polish ? config_.planner.polish_reserve_s : 0.0) - 2.0 * generation_s - 0.005;
   if (settings.de.time_budget_s > 0) de_budget = std::min(de_budget, settings.de.time_budget_s);
 
   planner::PlanOptions options;
@@ -386,6 +390,10 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     finishComputation(c, classifyException(std::current_exception()), std::nullopt, std::nullopt,
                       PlanSource::Coalesced);
     return;
+  }
+  if (result.de.generations > 0) {
+    const double measured = result.de_ms / (result.de.generations + 1);
+    generation_ms_.store(0.8 * generation_ms_.load() + 0.2 * measured);
   }
   if (c->cancel) {
     finishComputation(c, ServiceError(ErrorCode::Cancelled, "the call was cancelled"), std::nullopt,

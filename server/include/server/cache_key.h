@@ -9,6 +9,7 @@
 #include <string>
 #include <string_view>
 
+#include "planner/jump_planner.h"
 #include "planner/jump_task.h"
 #include "planner/planner_settings.h"
 #include "robot_model/robot_model.h"
@@ -56,9 +57,11 @@ struct CacheKeyHash {
 /// FNV-1a, 64 bit, continuing from `h` (default: the offset basis).
 std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t h = 0xcbf29ce484222325ULL);
 
-/// Stable hash of every planner setting that changes a plan (all fields but the DE's thread
-/// count and log switch): the same settings give the same hash in every build and run.
-std::uint64_t hashPlannerSettings(const planner::PlannerSettings& s);
+/// Stable hash of the planner settings that change a plan: the solver's settings field by field
+/// (all but the DE's thread count and log switch), the model's by a fingerprint of what they
+/// compute (see the definition). Same settings and planner code, same hash, in every run;
+/// a few tens of milliseconds, computed once at start.
+std::uint64_t hashPlannerSettings(const planner::JumpPlanner& planner);
 
 /// Quantizes requests into keys with the configured bins.
 class KeyQuantizer {

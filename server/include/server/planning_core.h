@@ -203,6 +203,8 @@ class PlanningCore {
   std::atomic<std::uint64_t> requests_{0}, hits_{0}, misses_{0}, coalesced_{0}, warm_starts_{0};
   std::atomic<std::uint64_t> rejected_invalid_{0}, rejected_queue_full_{0}, deadline_exceeded_{0};
   std::array<LatencyHistogram, kNumPlanSources> latency_;
+  /// Running estimate of one DE generation's wall time [ms] (the DE's clock granularity).
+  std::atomic<double> generation_ms_{20.0};
 };
 
 }  // namespace wj::server

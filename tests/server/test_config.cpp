@@ -1,0 +1,107 @@
+// The server configuration: strict YAML (unknown and missing keys are errors), the effective
+// configuration round-trips, the sample file is valid, plaintext only on loopback.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "server/config.h"
+
+namespace wj::server {
+namespace {
+
+std::string replaceLine(std::string yaml, const std::string& key_line, const std::string& with) {
+  const auto at = yaml.find(key_line);
+  EXPECT_NE(at, std::string::npos) << key_line;
+  const auto eol = yaml.find('\n', at);
+  return yaml.replace(at, eol - at, with);
+}
+
+std::string errorOf(const std::string& yaml) {
+  try {
+    ServerConfig::fromYamlString(yaml, "<test>");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ServerConfig, DefaultsRoundTripThroughTheirYaml) {
+  ServerConfig c;
+  c.cache.path = "/tmp/x.sqlite";
+  c.cache.v0_bin_m_s = 0.1;
+  c.tls.client_ca_file = "ca \"quoted\".pem";
+  const ServerConfig back = ServerConfig::fromYamlString(c.toYaml(), "<round trip>");
+  EXPECT_EQ(back.toYaml(), c.toYaml());
+  EXPECT_EQ(back.cache.v0_bin_m_s, 0.1);
+  EXPECT_EQ(back.tls.client_ca_file, "ca \"quoted\".pem");
+  EXPECT_EQ(back.listen, "127.0.0.1:50051");
+}
+
+TEST(ServerConfig, SampleFileIsValidAndNucLike) {
+  const auto c = ServerConfig::fromYamlFile(WJ_CONFIG_DIR "/planner_server.yaml");
+  EXPECT_EQ(c.listen, "127.0.0.1:50051");
+  EXPECT_EQ(c.tls.mode, TlsMode::Insecure);
+  EXPECT_EQ(c.planner.de_threads, 2);
+  EXPECT_EQ(c.cache.max_memory_entries, 100000);
+  EXPECT_DOUBLE_EQ(c.cache.v0_bin_m_s, 0.05);
+}
+
+TEST(ServerConfig, UnknownKeyIsAnErrorNamingIt) {
+  const std::string yaml =
+      replaceLine(ServerConfig{}.toYaml(), "  v0_bin_m_s:", "  v0_bin_m_s: 0.05\n  v0_bins: 3");
+  const std::string e = errorOf(yaml);
+  EXPECT_NE(e.find("unknown key 'cache.v0_bins'"), std::string::npos) << e;
+}
+
+TEST(ServerConfig, MissingKeyIsAnErrorNamingIt) {
+  const std::string yaml = replaceLine(ServerConfig{}.toYaml(), "  hit_queue:", "");
+  const std::string e = errorOf(yaml);
+  EXPECT_NE(e.find("missing key 'executor.hit_queue'"), std::string::npos) << e;
+  const std::string top = replaceLine(ServerConfig{}.toYaml(), "shutdown_grace_s:", "");
+  EXPECT_NE(errorOf(top).find("missing key 'shutdown_grace_s'"), std::string::npos);
+}
+
+TEST(ServerConfig, WrongTypeAndOutOfRangeAreErrors) {
+  const std::string base = ServerConfig{}.toYaml();
+  EXPECT_NE(errorOf(replaceLine(base, "  plan_workers:", "  plan_workers: many"))
+                .find("executor.plan_workers"),
+            std::string::npos);
+  EXPECT_NE(errorOf(replaceLine(base, "  plan_workers:", "  plan_workers: 0"))
+                .find("executor.plan_workers must be in [1, 64]"),
+            std::string::npos);
+  EXPECT_NE(errorOf(replaceLine(base, "  v0_bin_m_s:", "  v0_bin_m_s: .nan")).find("v0_bin_m_s"),
+            std::string::npos);
+  EXPECT_NE(errorOf(replaceLine(base, "  mode:", "  mode: ssl")).find("tls.mode"),
+            std::string::npos);
+  EXPECT_NE(errorOf("[1, 2]").find("must be a map"), std::string::npos);
+  EXPECT_NE(errorOf("listen: [").find("cannot parse"), std::string::npos);
+}
+
+TEST(ServerConfig, PlaintextOnlyOnLoopbackUnlessAllowed) {
+  const std::string base = ServerConfig{}.toYaml();
+  const std::string open = replaceLine(base, "listen:", "listen: \"0.0.0.0:50051\"");
+  EXPECT_NE(errorOf(open).find("not a loopback address"), std::string::npos);
+  const std::string allowed =
+      replaceLine(open, "  allow_insecure_non_loopback:", "  allow_insecure_non_loopback: true");
+  EXPECT_EQ(errorOf(allowed), "");
+  std::string tls = replaceLine(open, "  mode:", "  mode: tls");
+  EXPECT_NE(errorOf(tls).find("tls.server_cert_file"), std::string::npos);
+  tls = replaceLine(tls, "  server_cert_file:", "  server_cert_file: c.pem");
+  tls = replaceLine(tls, "  server_key_file:", "  server_key_file: k.pem");
+  EXPECT_EQ(errorOf(tls), "");
+  EXPECT_NE(errorOf(replaceLine(tls, "  mode:", "  mode: mutual_tls")).find("tls.client_ca_file"),
+            std::string::npos);
+}
+
+TEST(ServerConfig, LoopbackAddresses) {
+  for (const char* a : {"127.0.0.1:1", "127.1.2.3:50051", "localhost:9", "[::1]:50051"})
+    EXPECT_TRUE(isLoopbackListenAddress(a)) << a;
+  for (const char* a : {"0.0.0.0:1", "192.168.1.2:50051", "[::]:1", "127.0.0.1.evil.com:1",
+                        "example.com:80", "128.0.0.1:5"})
+    EXPECT_FALSE(isLoopbackListenAddress(a)) << a;
+}
+
+}  // namespace
+}  // namespace wj::server

@@ -1,0 +1,416 @@
+// The planning core without gRPC: hits regenerate for the caller's state, identical misses are
+// coalesced, the best verified candidate is returned, verifications run in parallel, deadlines
+// become budgets, cancellation stops the work, full queues refuse, warm starts and WarmCache.
+// Verification uses a scripted test double (the real Simbody verifier is exercised by the
+// integration tests): it lets a test decide verdicts, durations and when a verification ends.
+#include <gtest/gtest.h>
+
+#include <future>
+#include <thread>
+
+#include "server/planning_core.h"
+#include "server_test_util.h"
+
+namespace wj::server {
+namespace {
+
+using namespace std::chrono_literals;
+
+class ScriptedVerifier final : public PlanVerifier {
+ public:
+  std::function<bool(const planner::JumpPlan&)> pass = [](const planner::JumpPlan&) {
+    return true;
+  };
+  std::chrono::milliseconds delay{0};
+  std::shared_future<void> gate;  // if valid, every verification waits for it
+  std::atomic<int> calls{0}, running{0}, max_running{0};
+
+  std::string name() const override { return "scripted test verifier"; }
+  VerifierVerdict verify(const planner::JumpPlan& plan,
+                         const planner::JumpTask& /*task*/) const override {
+    auto* self = const_cast<ScriptedVerifier*>(this);
+    ++self->calls;
+    const int now = ++self->running;
+    int prev = self->max_running.load();
+    while (now > prev && !self->max_running.compare_exchange_weak(prev, now)) {
+    }
+    if (gate.valid()) gate.wait();
+    std::this_thread::sleep_for(delay);
+    --self->running;
+    VerifierVerdict v;
+    v.passed = pass(plan);
+    v.simulated = plan.predicted;
+    v.landed_upright = v.passed;
+    v.max_envelope_ratio = 0.5;
+    if (!v.passed) {
+      v.failure_bits = 1;
+      v.reasons.push_back("scripted failure");
+    }
+    return v;
+  }
+  std::vector<std::string> failureNames(std::uint32_t bits) const override {
+    return bits ? std::vector<std::string>{"scripted_failure"} : std::vector<std::string>{};
+  }
+  std::uint64_t settingsHash() const override { return 42; }
+};
+
+struct Fixture {
+  explicit Fixture(ServerConfig c = {}, ScriptedVerifier* v = nullptr,
+                   const std::filesystem::path& store = {})
+      : config(std::move(c)) {
+    std::unique_ptr<PlanVerifier> owned;
+    if (v) {
+      owned.reset(v);
+      verifier = v;
+    }
+    std::unique_ptr<SolutionStore> s;
+    if (!store.empty()) s = std::make_unique<SolutionStore>(store, false, 1000);
+    core = std::make_unique<PlanningCore>(
+        config, model::RobotModel::loadDefault(),
+        planner::PlannerSettings::fromYaml(config.planner.settings_file), std::move(owned),
+        std::move(s));
+  }
+  ServerConfig config;
+  ScriptedVerifier* verifier = nullptr;
+  std::unique_ptr<PlanningCore> core;
+};
+
+ServerConfig coreConfig() {
+  ServerConfig c = test::testConfig("/nonexistent");
+  c.cache.path.clear();
+  c.verification.enabled = true;
+  c.verification.default_candidates = 2;
+  return c;
+}
+
+PlanRequest request(double v0, double height = 0.8) {
+  PlanRequest r;
+  r.task.target = {0.0, height, 0.0, planner::TargetEvent::Apex};
+  r.initial.v0 = v0;
+  for (int leg = 0; leg < 4; ++leg) {
+    r.initial.q[leg * 4 + 1] = 1.0;
+    r.initial.q[leg * 4 + 2] = -2.0;
+  }
+  return r;
+}
+
+struct Pending {
+  std::shared_ptr<PlanCall> call;
+  std::future<PlanOutcome> outcome;
+};
+
+Pending start(PlanningCore& core, PlanRequest r, std::chrono::milliseconds deadline = 30s) {
+  auto promise = std::make_shared<std::promise<PlanOutcome>>();
+  Pending p;
+  p.outcome = promise->get_future();
+  p.call = std::make_shared<PlanCall>(
+      Clock::now() + deadline, [promise](PlanOutcome&& o) { promise->set_value(std::move(o)); });
+  core.plan(std::move(r), p.call);
+  return p;
+}
+
+PlanOutcome get(Pending& p, std::chrono::seconds limit = 60s) {
+  EXPECT_EQ(p.outcome.wait_for(limit), std::future_status::ready);
+  return p.outcome.get();
+}
+
+PlanOutcome planSync(PlanningCore& core, PlanRequest r, std::chrono::milliseconds deadline = 30s) {
+  auto p = start(core, std::move(r), deadline);
+  return get(p);
+}
+
+void expectAnswer(const PlanOutcome& o) {
+  ASSERT_FALSE(o.error.has_value()) << o.error->what();
+  EXPECT_GT(o.answer.plan.numSamples(), 0);
+}
+
+template <typename Pred>
+bool eventually(Pred pred, std::chrono::milliseconds limit = 20s) {
+  const auto until = Clock::now() + limit;
+  while (!pred()) {
+    if (Clock::now() > until) return false;
+    std::this_thread::sleep_for(5ms);
+  }
+  return true;
+}
+
+TEST(PlanningCore, MissThenHitRegeneratedForTheCallersOwnState) {
+  Fixture f(coreConfig(), new ScriptedVerifier);
+  const PlanOutcome miss = planSync(*f.core, request(1.0));
+  expectAnswer(miss);
+  EXPECT_EQ(miss.answer.source, PlanSource::CacheMiss);
+  EXPECT_EQ(miss.answer.verification.status, VerificationStatus::Passed);
+  EXPECT_DOUBLE_EQ(miss.answer.plan.initial.vx, 1.0);
+  const PlanOutcome hit = planSync(*f.core, request(1.02));  // same 0.05 m/s bin
+  expectAnswer(hit);
+  EXPECT_EQ(hit.answer.source, PlanSource::CacheHit);
+  EXPECT_DOUBLE_EQ(hit.answer.plan.initial.vx, 1.02);  // the trajectory is this caller's
+  EXPECT_EQ(hit.answer.stats.cache_key, miss.answer.stats.cache_key);
+  EXPECT_EQ(hit.answer.verification.status, VerificationStatus::Passed);
+  EXPECT_EQ(hit.answer.stats.de_ms, 0.0);
+  const auto s = f.core->stats();
+  EXPECT_EQ(s.cache_hits, 1u);
+  EXPECT_EQ(s.cache_misses, 1u);
+  EXPECT_EQ(s.cache_entries, 1u);
+  EXPECT_EQ(s.latencies[static_cast<int>(PlanSource::CacheHit)].count, 1u);
+  EXPECT_EQ(f.verifier->calls.load(), 2);  // K = 2 candidates, only on the miss
+}
+
+TEST(PlanningCore, IdenticalConcurrentMissesAreCoalescedIntoOneComputation) {
+  auto* v = new ScriptedVerifier;
+  std::promise<void> release;
+  v->gate = release.get_future().share();
+  Fixture f(coreConfig(), v);
+  std::vector<Pending> calls;
+  calls.push_back(start(*f.core, request(2.0)));
+  ASSERT_TRUE(eventually([&] { return v->calls.load() > 0; }));  // the leader is verifying
+  for (const double v0 : {2.0, 2.01, 1.99}) calls.push_back(start(*f.core, request(v0)));
+  EXPECT_EQ(f.core->stats().coalesced, 3u);
+  release.set_value();
+  std::vector<PlanOutcome> outcomes;
+  for (auto& c : calls) outcomes.push_back(get(c));
+  for (const auto& o : outcomes) expectAnswer(o);
+  EXPECT_EQ(outcomes[0].answer.source, PlanSource::CacheMiss);
+  for (std::size_t i = 1; i < outcomes.size(); ++i)
+    EXPECT_EQ(outcomes[i].answer.source, PlanSource::Coalesced);
+  EXPECT_DOUBLE_EQ(outcomes[3].answer.plan.initial.vx, 1.99);
+  EXPECT_EQ(f.core->stats().cache_misses, 1u);
+  EXPECT_EQ(v->calls.load(), 2);  // one computation verified its two candidates
+}
+
+TEST(PlanningCore, ReturnsTheBestVerifiedCandidate) {
+  ServerConfig c = coreConfig();
+  c.verification.default_candidates = 3;
+  std::vector<double> best_decision;
+  {
+    Fixture f(c, new ScriptedVerifier);
+    const auto o = planSync(*f.core, request(0.5));
+    expectAnswer(o);
+    EXPECT_EQ(o.answer.verification.returned_candidate_rank, 0);
+    EXPECT_EQ(o.answer.verification.candidates_verified, 3);
+    const auto& d = o.answer.plan.decision;
+    best_decision.assign(d.data(), d.data() + d.size());
+  }
+  {
+    // Same seed, same search: now the best predicted candidate fails in "simulation".
+    auto* v = new ScriptedVerifier;
+    v->pass = [best_decision](const planner::JumpPlan& p) {
+      return std::vector<double>(p.decision.data(), p.decision.data() + p.decision.size()) !=
+             best_decision;
+    };
+    Fixture f(c, v);
+    const auto o = planSync(*f.core, request(0.5));
+    expectAnswer(o);
+    EXPECT_EQ(o.answer.verification.status, VerificationStatus::Passed);
+    EXPECT_GE(o.answer.verification.returned_candidate_rank, 1);
+    EXPECT_EQ(o.answer.verification.candidates_verified, 3);
+    EXPECT_NE(std::vector<double>(o.answer.plan.decision.data(),
+                                  o.answer.plan.decision.data() + o.answer.plan.decision.size()),
+              best_decision);
+  }
+  {
+    auto* v = new ScriptedVerifier;
+    v->pass = [](const planner::JumpPlan&) { return false; };
+    Fixture f(c, v);
+    const auto o = planSync(*f.core, request(0.5));
+    expectAnswer(o);
+    EXPECT_EQ(o.answer.verification.status, VerificationStatus::Failed);
+    EXPECT_EQ(o.answer.verification.returned_candidate_rank, 0);
+    ASSERT_FALSE(o.answer.verification.failure_reasons.empty());
+    EXPECT_EQ(o.answer.verification.failure_reasons[0], "scripted failure");
+    // The cached failure is served with the verifier's reason names.
+    const auto hit = planSync(*f.core, request(0.5));
+    EXPECT_EQ(hit.answer.source, PlanSource::CacheHit);
+    EXPECT_EQ(hit.answer.verification.status, VerificationStatus::Failed);
+    EXPECT_EQ(hit.answer.verification.failure_reasons,
+              std::vector<std::string>{"scripted_failure"});
+  }
+}
+
+TEST(PlanningCore, VerifiesCandidatesInParallel) {
+  auto* v = new ScriptedVerifier;
+  v->delay = 400ms;
+  Fixture f(coreConfig(), v);
+  const auto o = planSync(*f.core, request(0.3));
+  expectAnswer(o);
+  EXPECT_EQ(v->max_running.load(), 2);
+  EXPECT_LT(o.answer.stats.verify_ms, 750.0);  // two 400 ms runs side by side, not in series
+}
+
+TEST(PlanningCore, DeadlineDuringVerificationIsDeadlineExceededNeverAHalfPlan) {
+  auto* v = new ScriptedVerifier;
+  v->delay = 3000ms;
+  Fixture f(coreConfig(), v);
+  const auto t0 = Clock::now();
+  const auto o = planSync(*f.core, request(0.7), 1500ms);
+  ASSERT_TRUE(o.error.has_value());
+  EXPECT_EQ(o.error->code(), ErrorCode::DeadlineExceeded) << o.error->what();
+  EXPECT_LT(Clock::now() - t0, 1500ms);  // answered before the client's deadline
+  EXPECT_EQ(o.answer.plan.numSamples(), 0);
+  EXPECT_EQ(f.core->stats().deadline_exceeded, 1u);
+  EXPECT_EQ(f.core->stats().cache_entries, 0u);
+}
+
+TEST(PlanningCore, TheDeadlineBoundsTheSearch) {
+  ServerConfig c = coreConfig();
+  c.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  c.verification.enabled = false;
+  c.planner.max_evaluations_cap = 10'000'000;
+  Fixture f(c);
+  PlanRequest r = request(0.9);
+  r.max_evaluations = 5'000'000;  // far more than fits in the deadline
+  const auto t0 = Clock::now();
+  const auto o = planSync(*f.core, r, 1000ms);
+  expectAnswer(o);
+  EXPECT_LT(Clock::now() - t0, 1000ms);
+  EXPECT_LT(o.answer.stats.evaluations, 5'000'000);
+  EXPECT_EQ(o.answer.verification.status, VerificationStatus::NotRun);
+}
+
+TEST(PlanningCore, CancellationStopsTheSearch) {
+  ServerConfig c = coreConfig();
+  c.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  c.verification.enabled = false;
+  c.planner.max_evaluations_cap = 10'000'000;
+  c.executor.plan_workers = 1;
+  Fixture f(c);
+  PlanRequest r = request(1.5);
+  r.max_evaluations = 10'000'000;
+  r.seed = 5;
+  auto slow = start(*f.core, r, 60s);
+  std::this_thread::sleep_for(300ms);
+  slow.call->cancel();
+  const auto cancelled = get(slow, 5s);
+  ASSERT_TRUE(cancelled.error.has_value());
+  EXPECT_EQ(cancelled.error->code(), ErrorCode::Cancelled);
+  // The only plan worker is free again: a new miss (whose search is bounded by its 2 s
+  // deadline) is answered within it instead of waiting behind a search of 10^7 evaluations.
+  const auto t0 = Clock::now();
+  const auto next = planSync(*f.core, request(0.1), 2000ms);
+  expectAnswer(next);
+  EXPECT_LT(Clock::now() - t0, 2000ms);
+}
+
+TEST(PlanningCore, FullQueueIsResourceExhaustedAndShutdownAbandonsQueuedWork) {
+  ServerConfig c = coreConfig();
+  c.executor.plan_workers = 1;
+  c.executor.plan_queue = 1;
+  auto* v = new ScriptedVerifier;
+  std::promise<void> release;
+  v->gate = release.get_future().share();
+  Fixture f(c, v);
+  auto running = start(*f.core, request(0.2));
+  ASSERT_TRUE(eventually([&] { return v->calls.load() > 0; }));  // holds the only worker
+  auto queued = start(*f.core, request(0.4));
+  const auto t0 = Clock::now();
+  const auto refused = planSync(*f.core, request(0.6));
+  ASSERT_TRUE(refused.error.has_value());
+  EXPECT_EQ(refused.error->code(), ErrorCode::ResourceExhausted);
+  EXPECT_NE(std::string(refused.error->what()).find("executor.plan_queue"), std::string::npos);
+  EXPECT_LT(Clock::now() - t0, 100ms);
+  EXPECT_EQ(f.core->stats().rejected_queue_full, 1u);
+  std::thread stopper([&] { f.core->shutdown(); });
+  const auto abandoned = get(queued, 10s);
+  ASSERT_TRUE(abandoned.error.has_value());
+  EXPECT_EQ(abandoned.error->code(), ErrorCode::Unavailable);
+  release.set_value();
+  stopper.join();
+  const auto first = get(running, 10s);
+  ASSERT_TRUE(first.error.has_value());  // cancelled by the shutdown while verifying
+  const auto after = planSync(*f.core, request(0.2));
+  ASSERT_TRUE(after.error.has_value());
+  EXPECT_EQ(after.error->code(), ErrorCode::Unavailable);
+}
+
+TEST(PlanningCore, MissIsWarmStartedFromCachedNeighbours) {
+  ServerConfig c = coreConfig();
+  c.verification.enabled = false;
+  Fixture f(c);
+  expectAnswer(planSync(*f.core, request(1.0)));
+  expectAnswer(planSync(*f.core, request(1.2)));
+  EXPECT_EQ(f.core->stats().warm_starts, 1u);  // 1.2 started from 1.0
+  const auto o = planSync(*f.core, request(1.1));
+  expectAnswer(o);
+  EXPECT_EQ(o.answer.source, PlanSource::WarmStart);
+  EXPECT_EQ(f.core->stats().warm_starts, 2u);
+  const auto far = planSync(*f.core, request(2.5));  // nothing within 0.5 m/s
+  EXPECT_EQ(far.answer.source, PlanSource::CacheMiss);
+}
+
+TEST(PlanningCore, UnverifiedEntryIsRecomputedWhenVerificationIsWanted) {
+  auto* v = new ScriptedVerifier;
+  Fixture f(coreConfig(), v);
+  PlanRequest skip = request(0.8);
+  skip.skip_verification = true;
+  const auto a = planSync(*f.core, skip);
+  expectAnswer(a);
+  EXPECT_EQ(a.answer.verification.status, VerificationStatus::NotRun);
+  EXPECT_EQ(v->calls.load(), 0);
+  const auto b = planSync(*f.core, request(0.8));
+  expectAnswer(b);
+  EXPECT_NE(b.answer.source, PlanSource::CacheHit);
+  EXPECT_EQ(b.answer.verification.status, VerificationStatus::Passed);
+  const auto c = planSync(*f.core, skip);  // a verified entry serves everyone
+  EXPECT_EQ(c.answer.source, PlanSource::CacheHit);
+  EXPECT_EQ(c.answer.verification.status, VerificationStatus::Passed);
+}
+
+TEST(PlanningCore, PersistedEntriesSurviveARestartAndAnEviction) {
+  test::TempDir dir("wj-core");
+  const auto path = dir / "c.sqlite";
+  ServerConfig c = coreConfig();
+  c.verification.enabled = false;
+  std::vector<double> u;
+  {
+    Fixture f(c, nullptr, path);
+    const auto o = planSync(*f.core, request(0.5));
+    expectAnswer(o);
+    EXPECT_EQ(o.answer.source, PlanSource::CacheMiss);
+  }
+  c.cache.max_memory_entries = 1;
+  Fixture f(c, nullptr, path);
+  EXPECT_EQ(f.core->stats().cache_entries, 1u);  // loaded at start
+  EXPECT_EQ(planSync(*f.core, request(0.5)).answer.source, PlanSource::CacheHit);
+  expectAnswer(planSync(*f.core, request(0.7)));  // evicts 0.5 from memory
+  EXPECT_EQ(f.core->stats().evictions, 1u);
+  const auto o = planSync(*f.core, request(0.5));
+  EXPECT_EQ(o.answer.source, PlanSource::CacheHit);  // read back from SQLite
+  EXPECT_EQ(f.core->stats().cache.persisted_hits, 1);
+}
+
+TEST(PlanningCore, WarmCacheStreamsProgressAndFillsTheCache) {
+  ServerConfig c = coreConfig();
+  c.verification.enabled = false;
+  Fixture f(c);
+  WarmRequest w;
+  w.task = request(0.0).task;
+  w.v0_grid = {0.0, 0.1, 0.2};
+  std::vector<WarmProgress> progress;
+  std::promise<std::optional<ServiceError>> done;
+  auto call = std::make_shared<WarmCall>(
+      Clock::now() + 60s, [&](const WarmProgress& p) { progress.push_back(p); },
+      [&](std::optional<ServiceError> e) { done.set_value(std::move(e)); });
+  f.core->warm(w, call);
+  // A second stream is refused while the first runs (warm_cache.max_streams = 1).
+  std::promise<std::optional<ServiceError>> second;
+  f.core->warm(w, std::make_shared<WarmCall>(
+                      Clock::now() + 60s, [](const WarmProgress&) {},
+                      [&](std::optional<ServiceError> e) { second.set_value(std::move(e)); }));
+  const auto refused = second.get_future().get();
+  ASSERT_TRUE(refused.has_value());
+  EXPECT_EQ(refused->code(), ErrorCode::ResourceExhausted);
+  auto finished = done.get_future();
+  ASSERT_EQ(finished.wait_for(60s), std::future_status::ready);
+  EXPECT_FALSE(finished.get().has_value());
+  ASSERT_EQ(progress.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(progress[static_cast<std::size_t>(i)].done, i + 1);
+    EXPECT_EQ(progress[static_cast<std::size_t>(i)].total, 3);
+  }
+  EXPECT_DOUBLE_EQ(progress[2].v0, 0.2);
+  EXPECT_EQ(progress[1].source, PlanSource::WarmStart);  // seeded by 0.0
+  EXPECT_EQ(planSync(*f.core, request(0.1)).answer.source, PlanSource::CacheHit);
+}
+
+}  // namespace
+}  // namespace wj::server
