@@ -19,7 +19,7 @@ std::vector<Eigen::Vector3d> linkComs(const model::RobotModel& model, const Eige
 }  // namespace
 
 std::array<Eigen::Vector3d, model::kNumLegs> calcWheelCenters(const model::RobotModel& model,
-                                                              const StaticsJointVector& q) {
+                                                              const JointVector& q) {
   const auto X = model.calcLinkPoses(q);
   std::array<Eigen::Vector3d, model::kNumLegs> out;
   for (const model::Leg leg : model::kLegs)
@@ -28,7 +28,7 @@ std::array<Eigen::Vector3d, model::kNumLegs> calcWheelCenters(const model::Robot
   return out;
 }
 
-StandingStatics calcStandingStatics(const model::RobotModel& model, const StaticsJointVector& q,
+StandingStatics calcStandingStatics(const model::RobotModel& model, const JointVector& q,
                                     double gravity_m_s2, double vertical_accel_m_s2) {
   StandingStatics out;
   const double g_eff = gravity_m_s2 + vertical_accel_m_s2;

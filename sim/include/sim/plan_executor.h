@@ -83,10 +83,10 @@ class PlanExecutor {
   const model::RobotModel& model_;
   const planner::JumpPlan& plan_;
   ExecutorSettings settings_;
-  StaticsJointVector landing_feedforward_ = StaticsJointVector::Zero();
+  JointVector landing_feedforward_ = JointVector::Zero();
   double wheel_speed_ = 0.0;  // wheel joint speed reference after take-off [rad/s]
-  StaticsJointVector q_flight_start_ = StaticsJointVector::Zero();   // measured at t2
-  StaticsJointVector qd_flight_start_ = StaticsJointVector::Zero();  // measured at t2
+  JointVector q_flight_start_ = JointVector::Zero();   // measured at t2
+  JointVector qd_flight_start_ = JointVector::Zero();  // measured at t2
   JumpPhase phase_ = JumpPhase::Takeoff;
   bool airborne_ = false;
   double last_contact_t_ = 0.0;

@@ -59,7 +59,9 @@ struct IntegratorStats {
 };
 
 /// The 22-DoF robot (free base + 16 pin joints built from the RobotModel) with compliant
-/// wheel, base and leg contact, drives with PD law and torque-speed envelope, and an IMU.
+/// wheel, base and leg contact, drives with PD law and torque-speed envelope, and an IMU at
+/// the base origin whose accelerometer reports the mean specific force over the last control
+/// period (velocity difference; the exact value right after reset()). See docs/sim.md.
 /// One SimRobot per thread: instances share nothing, so different instances may run
 /// concurrently; one instance is not thread-safe.
 class SimRobot final : public model::RobotInterface {
