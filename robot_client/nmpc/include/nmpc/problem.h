@@ -55,7 +55,7 @@ struct ProblemSettings {
   std::array<double, 3> weight_velocity = {40.0, 40.0, 20.0};        ///< CoM point, in W
   std::array<double, 3> weight_joint_position = {20.0, 10.0, 10.0};  ///< HAA, HFE, KFE
   double weight_force = 1e-3;                                        ///< per N^2, every axis
-  std::array<double, 3> weight_joint_velocity = {0.05, 0.05, 0.05};  ///< HAA, HFE, KFE
+  std::array<double, 3> weight_joint_velocity = {0.5, 0.5, 0.5};     ///< HAA, HFE, KFE
   double terminal_weight_scale = 10.0;  ///< terminal Q as a multiple of the stage Q [s]
   double friction_coefficient = 0.6;    ///< mu of the friction cone (paper Eq. 8) [-]
   /// eps in mu f_n - sqrt(|f_t|^2 + eps): smooths the cone's apex [N^2].
