@@ -167,6 +167,29 @@ TEST(SimRobot, DroppedRobotSettlesAtStandingHeight) {
   EXPECT_FALSE(gt.legs_in_contact);
 }
 
+TEST(SimRobot, EllipsoidWheelsCarryTheRobotToo) {
+  // The flattened-ellipsoid tread has a much smaller lateral curvature radius, so it sinks a
+  // little deeper than the sphere (2.1 mm at the hind wheels) but carries the same weight.
+  const model::RobotModel m = loadRobot();
+  SimSettings s;
+  s.contact.wheel_shape = WheelShape::Ellipsoid;
+  SimRobot robot(m, s);
+  const JointVector q = standingPosture(m, 0.36);
+  robot.reset(standing(m, q, 0.0, 0.02));
+  run(robot, holdPosture(m, q), 1.0);
+  GroundTruth gt;
+  robot.calcGroundTruth(gt);
+  double fz = 0.0;
+  for (const auto& w : gt.wheels) {
+    EXPECT_TRUE(w.in_contact);
+    EXPECT_LT(w.penetration_m, 2.5e-3);
+    fz += w.force_W.z();
+  }
+  EXPECT_NEAR(fz, m.totalMass() * kG, 0.5);
+  // Within a millimetre of the sphere's closed form: the tread shape changes the overlap only.
+  EXPECT_NEAR(gt.X_WB.translation().z(), expectedStandingHeight(m, q, s.contact), 1e-3);
+}
+
 TEST(SimRobot, StaticStandHoldsBaseHeightWithinOneMillimetre) {
   const model::RobotModel m = loadRobot();
   for (const ActuatorUpdate update : {ActuatorUpdate::Continuous, ActuatorUpdate::ZeroOrderHold}) {
