@@ -40,6 +40,7 @@ void ExecutorSettings::validate() const {
   requireNonNegative(takeoff_kp, "takeoff_kp");
   requireNonNegative(takeoff_kd, "takeoff_kd");
   requireNonNegative(wheel_kd, "wheel_kd");
+  requireNonNegative(flight_wheel_kd, "flight_wheel_kd");
   requireNonNegative(flight_kp, "flight_kp");
   requireNonNegative(flight_kd, "flight_kd");
   requirePositive(flight_blend_s, "flight_blend_s");
@@ -146,7 +147,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
         model::JointCommand& c = out[j];
         c.tau_ff = 0.0;
         if (isWheel(j)) {
-          c = {0.0, wheel_speed_, 0.0, settings_.wheel_kd, 0.0};
+          c = {0.0, wheel_speed_, 0.0, settings_.flight_wheel_kd, 0.0};
         } else {
           c.kp = settings_.flight_kp;
           c.kd = settings_.flight_kd;

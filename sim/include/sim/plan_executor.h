@@ -29,9 +29,13 @@ std::string_view toString(JumpPhase phase);
 struct ExecutorSettings {
   double takeoff_kp = 150.0;  ///< leg stiffness tracking plan.q in take-off [Nm/rad]
   double takeoff_kd = 3.0;    ///< leg damping tracking plan.qd in take-off [Nm s/rad]
-  double wheel_kd = 1.0;      ///< wheel speed gain in every phase [Nm s/rad]
-  double flight_kp = 80.0;    ///< leg stiffness towards q_landing in flight [Nm/rad]
-  double flight_kd = 2.0;     ///< leg damping in flight [Nm s/rad]
+  double wheel_kd = 1.0;      ///< wheel speed gain in take-off and landing [Nm s/rad]
+  /// Wheel speed gain in flight [Nm s/rad]. 0 lets the wheels spin freely: they keep the
+  /// spin they rolled with at take-off (ground speed / r, which flight conserves) and trade no
+  /// angular momentum with the body; a gain towards a joint speed would tilt the body.
+  double flight_wheel_kd = 0.0;
+  double flight_kp = 80.0;  ///< leg stiffness towards q_landing in flight [Nm/rad]
+  double flight_kd = 2.0;   ///< leg damping in flight [Nm s/rad]
   /// Plans without flight samples: quintic blend from the take-off state to q_landing [s].
   double flight_blend_s = 0.12;
   double joint_limit_margin_rad = 0.05;     ///< flight references stay this far inside the range
