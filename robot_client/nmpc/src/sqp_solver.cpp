@@ -146,7 +146,8 @@ SqpStatus SqpSolver::solve(double t0, const State& x0, const Targets& targets) {
     }
     cost = new_cost;
     violation = new_violation;
-    if (stats_.step_norm < settings_.step_tolerance && violation < settings_.constraint_tolerance) {
+    if ((stats_.step_norm < settings_.step_tolerance || converged_at_round_off_) &&
+        violation < settings_.constraint_tolerance) {
       status = SqpStatus::Converged;
       break;
     }
@@ -237,6 +238,7 @@ void SqpSolver::evaluateTrajectory(const std::vector<State>& x, const std::vecto
 double SqpSolver::lineSearch(double cost, double violation, double& new_cost,
                              double& new_violation) {
   const auto start = Clock::now();
+  converged_at_round_off_ = false;
   // Directional derivative of the cost along the step.
   double slope = cost_[n_].dx.dot(dx_[n_]);
   double step_sq = dx_[n_].squaredNorm();
@@ -254,7 +256,10 @@ double SqpSolver::lineSearch(double cost, double violation, double& new_cost,
         return false;
     return true;
   };
-  const double round_off = 1e-13 * (1.0 + std::abs(cost));
+  const double round_off = 1e-12 * (1.0 + std::abs(cost));
+  const bool at_round_off =
+      std::sqrt(step_sq) < settings_.step_tolerance ||
+      (violation < settings_.constraint_tolerance && std::abs(slope) < round_off);
   const double violation_cap = std::max(settings_.violation_max, 1e4 * violation);
   double accepted = 0.0;
   for (double alpha = 1.0; alpha >= settings_.alpha_min; alpha *= settings_.alpha_decay) {
@@ -264,10 +269,12 @@ double SqpSolver::lineSearch(double cost, double violation, double& new_cost,
     evaluateTrajectory(x_trial_, u_trial_, c, v);
     if (!std::isfinite(c) || !std::isfinite(v) || v > violation_cap) continue;
     bool ok = false;
-    if (std::sqrt(step_sq) < settings_.step_tolerance || (switching && -slope < round_off)) {
-      ok = true;  // converged: what the step could gain is within round-off of the cost
+    if (at_round_off) {
+      ok = true;  // converged: what the step could change is within round-off of the cost
     } else if (switching) {
-      ok = c < cost + settings_.armijo_factor * alpha * slope && v < settings_.violation_min;
+      // Armijo; near convergence a change within round-off counts as no harm.
+      ok = v < settings_.violation_min &&
+           (c < cost + settings_.armijo_factor * alpha * slope || c <= cost + round_off);
     } else {
       ok = acceptable(c, v) && (c < cost - settings_.cost_gamma * violation ||
                                 v < (1.0 - settings_.violation_gamma) * violation);
@@ -280,6 +287,7 @@ double SqpSolver::lineSearch(double cost, double violation, double& new_cost,
       x_.swap(x_trial_);
       u_.swap(u_trial_);
       stats_.step_norm = alpha * std::sqrt(step_sq);
+      converged_at_round_off_ = at_round_off;
       break;
     }
   }

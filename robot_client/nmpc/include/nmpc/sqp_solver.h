@@ -30,8 +30,10 @@ struct SqpSettings {
   double horizon_s = 1.0;  ///< prediction horizon (paper; OCS2's legged robot example) [s]
   double dt_s = 0.015;     ///< node spacing; rounded down so that nodes tile the horizon [s]
   Integrator integrator = Integrator::ForwardEuler;  ///< discretisation of each interval
-  int max_iterations = 1;                ///< SQP iterations per solve() (1 = real-time iteration)
-  double step_tolerance = 1e-6;          ///< converged when the step's 2-norm is below this...
+  int max_iterations = 1;  ///< SQP iterations per solve() (1 = real-time iteration)
+  /// Converged when the step's 2-norm is below this (or the step cannot change the cost by more
+  /// than round-off)...
+  double step_tolerance = 1e-6;
   double constraint_tolerance = 1e-6;    ///< ...and the constraint violation is below this
   double hessian_regularization = 1e-8;  ///< added to the reduced input Hessians
   double alpha_decay = 0.5;              ///< line search: step shrink factor
@@ -150,7 +152,9 @@ class SqpSolver {
   std::vector<RiccatiGain> gains_;
   std::vector<ReducedVector> dz_;
 
-  std::vector<std::pair<double, double>> filter_;  // (cost, violation) of the filter
+  std::vector<std::pair<double, double>> filter_;
+  bool converged_at_round_off_ =
+      false;  // the last step could only change round-off  // (cost, violation) of the filter
 
   Policy policy_;
   SqpStats stats_;
