@@ -69,6 +69,8 @@ ServerProcess::ServerProcess(const ServerConfig& config, const std::filesystem::
     out << config.toYaml();
   }
   log_path_ = config_path.string() + ".log";
+  // A restart with the same configuration must not read the previous process's port.
+  std::filesystem::remove(log_path_);
   pid_ = ::fork();
   if (pid_ < 0) throw std::runtime_error("fork failed");
   if (pid_ == 0) {

@@ -1,0 +1,581 @@
+// Integration tests against real planner_server processes on 127.0.0.1 with ephemeral ports:
+// plans and hits, invalid requests, concurrent clients, full queues, deadlines, cancellation,
+// WarmCache, SIGTERM, kill -9 in the middle of cache writes, corrupted rows, TLS and mutual TLS,
+// plaintext off loopback, configuration errors, message size bounds, verification in the loop.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sqlite3.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <fstream>
+#include <future>
+#include <mutex>
+#include <set>
+#include <thread>
+
+#include "planner_client/planner_client.h"
+#include "server/plan_verifier.h"
+#include "server/solution_store.h"
+#include "server_test_util.h"
+
+namespace wj::server {
+namespace {
+
+using namespace std::chrono_literals;
+namespace v1 = wheeljump::planner::v1;
+using test::ServerProcess;
+using test::standingRequest;
+using test::TempDir;
+
+client::ClientOptions clientFor(const std::string& target, int max_attempts = 5) {
+  client::ClientOptions o;
+  o.target = target;
+  o.max_attempts = max_attempts;
+  o.initial_backoff = 100ms;
+  return o;
+}
+
+client::PlanResult plan(client::PlannerClient& c, const v1::PlanJumpRequest& r,
+                        std::chrono::milliseconds deadline = 20s) {
+  auto f = c.planJump(r, deadline);
+  EXPECT_EQ(f.wait_for(deadline + 10s), std::future_status::ready);
+  return f.get();
+}
+
+v1::GetStatsResponse stats(client::PlannerClient& c) {
+  const auto r = c.getStats(5s).get();
+  EXPECT_TRUE(r.ok()) << r.status.error_message();
+  return r.response;
+}
+
+// The response is a whole plan: sizes consistent with each other and with the phase times.
+void expectWholePlan(const v1::PlanJumpResponse& r) {
+  const auto& p = r.plan();
+  const auto& j = p.joints();
+  ASSERT_GT(j.num_samples(), 10u);
+  EXPECT_EQ(j.joint_names_size(), 16);
+  EXPECT_EQ(static_cast<std::uint32_t>(j.positions_rad_size()), 16 * j.num_samples());
+  EXPECT_EQ(static_cast<std::uint32_t>(j.velocities_rad_s_size()), 16 * j.num_samples());
+  EXPECT_EQ(static_cast<std::uint32_t>(j.torques_nm_size()), 16 * j.num_samples());
+  EXPECT_EQ(static_cast<std::uint32_t>(p.centroidal_trajectory_size()), j.num_samples());
+  EXPECT_DOUBLE_EQ(p.centroidal_trajectory(p.centroidal_trajectory_size() - 1).t_s(),
+                   p.phase_times().t3_s());
+  EXPECT_EQ(p.decision_vector_size(), 12);
+  EXPECT_GE(p.force_phases_size(), 1);
+  EXPECT_EQ(r.feasibility().margins_size(), 10);
+}
+
+std::string planSourceName(const v1::PlanJumpResponse& r) {
+  return v1::PlanSource_Name(r.source());
+}
+
+// Flips one payload byte of the row of `key_hex` behind the server's back.
+void corruptRow(const std::filesystem::path& db_path, const std::string& key_hex) {
+  std::string key;
+  for (std::size_t i = 0; i + 1 < key_hex.size(); i += 2)
+    key.push_back(static_cast<char>(std::stoi(key_hex.substr(i, 2), nullptr, 16)));
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(db_path.c_str(), &db), SQLITE_OK);
+  sqlite3_stmt* st = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db,
+                               "UPDATE solutions SET payload = substr(payload, 1, 30) || "
+                               "x'5a' || substr(payload, 32) WHERE key = ?1",
+                               -1, &st, nullptr),
+            SQLITE_OK);
+  sqlite3_bind_blob(st, 1, key.data(), static_cast<int>(key.size()), SQLITE_TRANSIENT);
+  ASSERT_EQ(sqlite3_step(st), SQLITE_DONE);
+  EXPECT_EQ(sqlite3_changes(db), 1);
+  sqlite3_finalize(st);
+  sqlite3_close(db);
+}
+
+TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
+  TempDir dir("wj-it");
+  ServerProcess server(test::testConfig(dir.path()), dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  v1::PlanJumpRequest r = standingRequest(1.0);
+  r.set_request_id("robot-42");
+  const auto miss = plan(c, r);
+  ASSERT_TRUE(miss.ok()) << miss.status.error_message();
+  EXPECT_EQ(miss.response.source(), v1::PLAN_SOURCE_CACHE_MISS);
+  EXPECT_EQ(miss.response.request_id(), "robot-42");
+  expectWholePlan(miss.response);
+  EXPECT_EQ(miss.response.verification().status(), v1::VERIFICATION_STATUS_NOT_RUN);
+  EXPECT_GT(miss.response.stats().evaluations(), 0u);
+  EXPECT_EQ(miss.response.stats().cache_key().size(), 2 * CacheKey::kBytes);
+  const auto hit = plan(c, standingRequest(1.01));
+  ASSERT_TRUE(hit.ok());
+  EXPECT_EQ(hit.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  expectWholePlan(hit.response);
+  EXPECT_EQ(hit.response.stats().cache_key(), miss.response.stats().cache_key());
+  EXPECT_NEAR(hit.response.plan().centroidal_trajectory(0).com_vx_m_s(), 1.01, 1e-9);
+  const auto s = stats(c);
+  EXPECT_EQ(s.requests(), 2u);
+  EXPECT_EQ(s.cache_hits(), 1u);
+  EXPECT_EQ(s.cache_misses(), 1u);
+  EXPECT_EQ(s.cache_entries(), 1u);
+  ASSERT_EQ(s.latencies_size(), 4);
+  EXPECT_EQ(s.latencies(0).path(), "cache_hit");
+  EXPECT_EQ(s.latencies(0).count(), 1u);
+  EXPECT_GT(s.latencies(0).p99_ms(), 0.0);
+  EXPECT_GT(s.uptime_s(), 0.0);
+}
+
+TEST(Integration, InvalidRequestsNameTheFieldAndItsRange) {
+  TempDir dir("wj-it");
+  ServerProcess server(test::testConfig(dir.path()), dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  v1::PlanJumpRequest nan = standingRequest(1.0);
+  nan.mutable_task()->set_target_height_m(std::numeric_limits<double>::quiet_NaN());
+  const auto a = plan(c, nan);
+  EXPECT_EQ(a.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(a.status.error_message().find("task.target_height_m"), std::string::npos);
+  EXPECT_NE(a.status.error_message().find("[0.1, 1.5]"), std::string::npos);
+  v1::PlanJumpRequest short_joints = standingRequest(1.0);
+  short_joints.mutable_state()->mutable_joint_positions_rad()->RemoveLast();
+  const auto b = plan(c, short_joints);
+  EXPECT_EQ(b.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(b.status.error_message().find("16 entries"), std::string::npos);
+  const auto empty = plan(c, v1::PlanJumpRequest{});
+  EXPECT_EQ(empty.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(empty.attempts, 1);  // not retried
+  const auto s = stats(c);
+  EXPECT_EQ(s.rejected_invalid(), 3u);
+  EXPECT_EQ(s.requests(), 3u);
+}
+
+TEST(Integration, ConcurrentClientsMixHitsAndMisses) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.executor.plan_queue = 64;
+  ServerProcess server(config, dir / "server.yaml");
+  {
+    client::PlannerClient warm(clientFor(server.target()));
+    for (const double v0 : {0.0, 0.5, 1.0}) ASSERT_TRUE(plan(warm, standingRequest(v0)).ok());
+  }
+  constexpr int kThreads = 8, kPerThread = 12;
+  std::vector<std::unique_ptr<client::PlannerClient>> clients;
+  for (int i = 0; i < 4; ++i)
+    clients.push_back(std::make_unique<client::PlannerClient>(clientFor(server.target())));
+  std::mutex mu;
+  std::map<std::string, int> sources;
+  std::atomic<int> failures{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      auto& c = *clients[static_cast<std::size_t>(t % 4)];
+      for (int i = 0; i < kPerThread; ++i) {
+        // Even requests hit the three warm speeds; odd ones ask for six new speeds that
+        // several threads request at about the same time (misses, some coalesced).
+        const double v0 = i % 2 == 0 ? 0.5 * (i / 2 % 3) : 1.5 + 0.1 * ((i / 2 + t) % 6);
+        const auto r = plan(c, standingRequest(v0, 0.8), 60s);
+        if (!r.ok()) {
+          ++failures;
+          continue;
+        }
+        expectWholePlan(r.response);
+        std::lock_guard lock(mu);
+        ++sources[planSourceName(r.response)];
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(failures.load(), 0);
+  const auto s = stats(*clients[0]);
+  const int total = kThreads * kPerThread;
+  EXPECT_GE(sources["PLAN_SOURCE_CACHE_HIT"], total / 2);
+  EXPECT_EQ(s.cache_hits() + s.cache_misses() + s.coalesced(), 3u + total);
+  EXPECT_EQ(s.cache_misses(), 3u + 6u);  // each new speed computed once
+  EXPECT_EQ(s.cache_entries(), 9u);
+  EXPECT_EQ(static_cast<std::uint64_t>(sources["PLAN_SOURCE_COALESCED"]), s.coalesced());
+}
+
+TEST(Integration, FullQueueIsResourceExhausted) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  config.executor.plan_workers = 1;
+  config.executor.plan_queue = 1;
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  std::vector<std::future<client::PlanResult>> calls;
+  for (int i = 0; i < 5; ++i) calls.push_back(c.planJump(standingRequest(0.2 * i), 3000ms));
+  int exhausted = 0, ok = 0;
+  for (auto& f : calls) {
+    const auto r = f.get();
+    if (r.status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+      ++exhausted;
+      EXPECT_NE(r.status.error_message().find("queue is full"), std::string::npos);
+    }
+    ok += r.ok() ? 1 : 0;
+  }
+  EXPECT_GE(exhausted, 3);  // one running, one queued, the rest refused
+  EXPECT_GE(ok, 1);
+  EXPECT_EQ(stats(c).rejected_queue_full(), static_cast<std::uint64_t>(exhausted));
+}
+
+TEST(Integration, TheDeadlineBecomesTheBudget) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  // A search that would take minutes is cut to fit the client's 1.5 s.
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto r = plan(c, standingRequest(0.6), 1500ms);
+  const auto elapsed = std::chrono::steady_clock::now() - t0;
+  ASSERT_TRUE(r.ok()) << r.status.error_message();
+  expectWholePlan(r.response);
+  EXPECT_LT(elapsed, 1500ms);
+  EXPECT_LT(r.response.stats().total_ms(), 1500.0);
+  EXPECT_GT(r.response.stats().de_ms(), 700.0);  // and most of it is used
+  // No time at all: DEADLINE_EXCEEDED, never a half-written plan.
+  const auto none = plan(c, standingRequest(2.2), 5ms);
+  EXPECT_EQ(none.status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  EXPECT_FALSE(none.response.has_plan());
+}
+
+TEST(Integration, CancellationStopsTheWork) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  config.executor.plan_workers = 1;
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  auto slow = c.planJump(standingRequest(0.3), 60s);
+  std::this_thread::sleep_for(500ms);
+  c.cancelAll();
+  ASSERT_EQ(slow.wait_for(5s), std::future_status::ready);
+  EXPECT_EQ(slow.get().status.error_code(), grpc::StatusCode::CANCELLED);
+  // The only plan worker is free: a 2 s call gets its answer within its deadline.
+  const auto next = plan(c, standingRequest(1.7), 2000ms);
+  EXPECT_TRUE(next.ok()) << next.status.error_message();
+}
+
+TEST(Integration, WarmCacheStreamsProgressAndWarmStarts) {
+  TempDir dir("wj-it");
+  ServerProcess server(test::testConfig(dir.path()), dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  v1::WarmCacheRequest w;
+  *w.mutable_task() = standingRequest(0.0).task();
+  w.set_v0_min_m_s(0.0);
+  w.set_v0_max_m_s(0.3);
+  w.set_v0_step_m_s(0.1);
+  std::vector<v1::WarmCacheProgress> progress;
+  std::promise<client::WarmResult> done;
+  c.warmCache(
+      w, [&](const v1::WarmCacheProgress& p) { progress.push_back(p); },
+      [&](client::WarmResult r) { done.set_value(std::move(r)); }, 60s);
+  const auto result = done.get_future().get();
+  ASSERT_TRUE(result.ok()) << result.status.error_message();
+  ASSERT_EQ(progress.size(), 4u);
+  for (std::size_t i = 0; i < progress.size(); ++i) {
+    EXPECT_EQ(progress[i].done(), i + 1);
+    EXPECT_EQ(progress[i].total(), 4u);
+    EXPECT_NEAR(progress[i].v0_m_s(), 0.1 * static_cast<double>(i), 1e-12);
+  }
+  EXPECT_EQ(progress[1].source(), v1::PLAN_SOURCE_WARM_START);
+  EXPECT_GE(stats(c).warm_starts(), 3u);
+  EXPECT_EQ(plan(c, standingRequest(0.2)).response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+}
+
+TEST(Integration, SigtermFinishesInFlightCallsAndFlushesTheCache) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  config.shutdown_grace_s = 10.0;
+  std::string key;
+  {
+    ServerProcess server(config, dir / "server.yaml");
+    client::PlannerClient c(clientFor(server.target(), 1));
+    // An entry whose search ends on its evaluation budget (so it is cached) ...
+    v1::PlanJumpRequest bounded = standingRequest(1.2);
+    bounded.mutable_budget()->set_max_evaluations(200);
+    const auto first = plan(c, bounded, 10s);
+    ASSERT_TRUE(first.ok()) << first.status.error_message();
+    key = first.response.stats().cache_key();
+    // ... and a call in flight when SIGTERM arrives, whose search runs to its deadline.
+    auto in_flight = c.planJump(standingRequest(0.8), 2500ms);
+    std::this_thread::sleep_for(300ms);
+    server.signal(SIGTERM);
+    const auto r = in_flight.get();
+    ASSERT_TRUE(r.ok()) << r.status.error_message();  // finished, not dropped
+    expectWholePlan(r.response);
+    const auto code = server.waitExit(15s);
+    ASSERT_TRUE(code.has_value());
+    EXPECT_EQ(*code, 0) << server.output();
+    EXPECT_NE(server.output().find("planner_server stopped"), std::string::npos);
+    // New calls after the signal are refused.
+    const auto late = plan(c, standingRequest(1.9), 1000ms);
+    EXPECT_EQ(late.status.error_code(), grpc::StatusCode::UNAVAILABLE);
+  }
+  // Flushed: the WAL was folded into the database file.
+  const auto wal = std::filesystem::path(config.cache.path + "-wal");
+  EXPECT_TRUE(!std::filesystem::exists(wal) || std::filesystem::file_size(wal) == 0);
+  ServerProcess again(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(again.target()));
+  const auto hit = plan(c, standingRequest(1.2), 3s);
+  ASSERT_TRUE(hit.ok()) << hit.status.error_message();
+  EXPECT_EQ(hit.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  EXPECT_EQ(hit.response.stats().cache_key(), key);
+}
+
+// kill -9 while WarmCache writes the cache, three times: every grid point reported done
+// before the kill is served from the cache after the restart, no row is corrupted, and
+// clients see UNAVAILABLE while the server is down, then recover by themselves.
+TEST(Integration, KillNineMidWriteLosesNoCommittedEntryAndClientsRecover) {
+  TempDir dir("wj-it");
+  const ServerConfig config = test::testConfig(dir.path());
+  std::set<long> committed;  // v0 in mm/s
+  v1::WarmCacheRequest w;
+  *w.mutable_task() = standingRequest(0.0).task();
+  w.set_v0_step_m_s(0.05);
+  for (int round = 0; round < 3; ++round) {
+    auto server = std::make_unique<ServerProcess>(config, dir / "server.yaml");
+    {
+      client::PlannerClient c(clientFor(server->target(), 1));
+      w.set_v0_min_m_s(-1.0 + 1.6 * round);
+      w.set_v0_max_m_s(w.v0_min_m_s() + 1.5);
+      std::mutex mu;
+      std::condition_variable cv;
+      int received = 0;
+      std::promise<client::WarmResult> done;
+      c.warmCache(
+          w,
+          [&](const v1::WarmCacheProgress& p) {
+            std::lock_guard lock(mu);
+            committed.insert(std::lround(p.v0_m_s() * 1000));
+            ++received;
+            cv.notify_all();
+          },
+          [&](client::WarmResult r) { done.set_value(std::move(r)); }, 120s);
+      auto finished = done.get_future();
+      {
+        std::unique_lock lock(mu);
+        const bool enough = cv.wait_for(lock, 60s, [&] { return received >= 3 + round; });
+        ASSERT_TRUE(enough) << received << " points; stream "
+                            << (finished.wait_for(0s) == std::future_status::ready
+                                    ? finished.get().status.error_message()
+                                    : std::string("still open"))
+                            << "\n"
+                            << server->output();
+      }
+      server->signal(SIGKILL);  // in the middle of the stream: a point is being planned/written
+      ASSERT_EQ(server->waitExit(10s), 128 + SIGKILL);
+      const auto end = finished.get();
+      EXPECT_EQ(end.status.error_code(), grpc::StatusCode::UNAVAILABLE);
+    }
+    const std::string dead = server->target();
+    server.reset();
+    // Down: a client without retries sees UNAVAILABLE ...
+    {
+      client::PlannerClient once(clientFor(dead, 1));
+      EXPECT_EQ(plan(once, standingRequest(0.0), 2000ms).status.error_code(),
+                grpc::StatusCode::UNAVAILABLE);
+    }
+  }
+  // ... and one with retries recovers once the server is back on its port.
+  ServerConfig fixed = config;
+  {
+    ServerConfig probe_config = config;
+    probe_config.cache.path.clear();
+    ServerProcess probe(probe_config, dir / "probe.yaml");  // finds a free port
+    fixed.listen = probe.target();
+  }
+  client::PlannerClient retrying(clientFor(fixed.listen, 20));
+  auto pending = retrying.planJump(standingRequest(0.0), 30s);
+  std::this_thread::sleep_for(700ms);  // a few attempts fail with UNAVAILABLE meanwhile
+  ServerProcess server(fixed, dir / "server.yaml");
+  const auto recovered = pending.get();
+  ASSERT_TRUE(recovered.ok()) << recovered.status.error_message();
+  EXPECT_GE(recovered.attempts, 2);
+  ASSERT_GE(committed.size(), 9u);
+  int lost = 0;
+  for (const long mm : committed) {
+    const auto r = plan(retrying, standingRequest(static_cast<double>(mm) / 1000.0));
+    ASSERT_TRUE(r.ok()) << r.status.error_message();
+    if (r.response.source() != v1::PLAN_SOURCE_CACHE_HIT) ++lost;
+  }
+  EXPECT_EQ(lost, 0) << "of " << committed.size() << " committed grid points";
+  server.signal(SIGTERM);
+  ASSERT_EQ(server.waitExit(15s), 0);
+  SolutionStore store(config.cache.path, true, 1000000);
+  EXPECT_GE(store.count(), static_cast<std::int64_t>(committed.size()));
+  std::int64_t rows = 0;
+  store.forEachNewest(1000000, [&](const CacheKey&, const CachedSolution&) { ++rows; });
+  EXPECT_EQ(rows, store.count());
+  EXPECT_EQ(store.counters().corrupt_rows, 0);
+  EXPECT_FALSE(store.counters().recreated);
+}
+
+TEST(Integration, CorruptedRowIsNeverServed) {
+  TempDir dir("wj-it");
+  const ServerConfig config = test::testConfig(dir.path());
+  std::string damaged_key;
+  {
+    ServerProcess server(config, dir / "server.yaml");
+    client::PlannerClient c(clientFor(server.target()));
+    const auto a = plan(c, standingRequest(0.5));
+    ASSERT_TRUE(a.ok());
+    damaged_key = a.response.stats().cache_key();
+    ASSERT_TRUE(plan(c, standingRequest(1.0)).ok());
+    server.signal(SIGTERM);
+    ASSERT_EQ(server.waitExit(15s), 0);
+  }
+  corruptRow(config.cache.path, damaged_key);
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  EXPECT_EQ(stats(c).cache_entries(), 1u);  // the damaged row was refused at load
+  const auto a = plan(c, standingRequest(0.5));
+  ASSERT_TRUE(a.ok());
+  EXPECT_NE(a.response.source(), v1::PLAN_SOURCE_CACHE_HIT);  // recomputed, not served
+  EXPECT_EQ(stats(c).cache_misses(), 1u);
+  EXPECT_EQ(plan(c, standingRequest(1.0)).response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+}
+
+// Creates a CA, a server certificate for 127.0.0.1 and a client certificate with openssl.
+void makeCertificates(const std::filesystem::path& d) {
+  const std::string q = "cd '" + d.string() + "' && ";
+  const std::string ec = " -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes";
+  const std::vector<std::string> steps = {
+      "openssl req -x509" + ec + " -keyout ca.key -out ca.pem -days 2 -subj /CN=wj-test-ca",
+      "openssl req" + ec + " -keyout server.key -out server.csr -subj /CN=localhost",
+      "printf 'subjectAltName=IP:127.0.0.1,DNS:localhost' > san.ext",
+      "openssl x509 -req -in server.csr -CA ca.pem -CAkey ca.key -CAcreateserial -out "
+      "server.pem -days 2 -extfile san.ext",
+      "openssl req" + ec + " -keyout client.key -out client.csr -subj /CN=wj-robot",
+      "openssl x509 -req -in client.csr -CA ca.pem -CAkey ca.key -CAcreateserial -out "
+      "client.pem -days 2"};
+  for (const auto& s : steps) ASSERT_EQ(std::system((q + s + " > /dev/null 2>&1").c_str()), 0) << s;
+}
+
+TEST(Integration, TlsAndMutualTls) {
+  TempDir dir("wj-it");
+  makeCertificates(dir.path());
+  ServerConfig config = test::testConfig(dir.path());
+  config.cache.path.clear();
+  config.tls.mode = TlsMode::Tls;
+  config.tls.server_cert_file = (dir / "server.pem").string();
+  config.tls.server_key_file = (dir / "server.key").string();
+  const auto tlsClient = [&](const std::string& target, bool with_cert) {
+    client::ClientOptions o = clientFor(target, 1);
+    o.use_tls = true;
+    o.tls.root_ca_file = (dir / "ca.pem").string();
+    // With gRPC 1.51 the IP target was refused against the IP SAN ("Peer name 127.0.0.1 is not
+    // in peer certificate"); the DNS name of the certificate is checked instead.
+    o.tls.target_name_override = "localhost";
+    if (with_cert) {
+      o.tls.cert_chain_file = (dir / "client.pem").string();
+      o.tls.private_key_file = (dir / "client.key").string();
+    }
+    return o;
+  };
+  {
+    ServerProcess server(config, dir / "tls.yaml");
+    client::PlannerClient secure(tlsClient(server.target(), false));
+    EXPECT_TRUE(secure.getStats(5s).get().ok());
+    client::PlannerClient plaintext(clientFor(server.target(), 1));
+    EXPECT_EQ(plaintext.getStats(3s).get().status.error_code(), grpc::StatusCode::UNAVAILABLE);
+  }
+  config.tls.mode = TlsMode::MutualTls;
+  config.tls.client_ca_file = (dir / "ca.pem").string();
+  ServerProcess server(config, dir / "mtls.yaml");
+  client::PlannerClient anonymous(tlsClient(server.target(), false));
+  EXPECT_EQ(anonymous.getStats(3s).get().status.error_code(), grpc::StatusCode::UNAVAILABLE);
+  client::PlannerClient robot(tlsClient(server.target(), true));
+  const auto r = plan(robot, standingRequest(0.4));
+  EXPECT_TRUE(r.ok()) << r.status.error_message();
+}
+
+TEST(Integration, PlaintextIsRefusedOffLoopbackUnlessAllowed) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.cache.path.clear();
+  const auto path = dir / "open.yaml";
+  { std::ofstream(path) << config.toYaml(); }
+  const auto [code, out] =
+      test::runServerToExit({"--config", path.string(), "--listen", "0.0.0.0:0"});
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(out.find("not a loopback address"), std::string::npos) << out;
+  config.listen = "0.0.0.0:0";
+  config.tls.allow_insecure_non_loopback = true;
+  ServerProcess allowed(config, dir / "allowed.yaml");
+  client::PlannerClient c(clientFor(allowed.target()));
+  EXPECT_TRUE(c.getStats(5s).get().ok());
+}
+
+TEST(Integration, ConfigurationErrorsNameTheKeyAndTheEffectiveConfigIsPrinted) {
+  TempDir dir("wj-it");
+  std::string yaml = test::testConfig(dir.path()).toYaml();
+  { std::ofstream(dir / "typo.yaml") << yaml << "cache_size: 5\n"; }
+  const auto [code, out] = test::runServerToExit({"--config", (dir / "typo.yaml").string()});
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(out.find("unknown key 'cache_size'"), std::string::npos) << out;
+  const auto at = yaml.find("  hit_workers:");
+  const std::string missing = yaml.substr(0, at) + yaml.substr(yaml.find('\n', at) + 1);
+  { std::ofstream(dir / "missing.yaml") << missing; }
+  const auto [code2, out2] = test::runServerToExit({"--config", (dir / "missing.yaml").string()});
+  EXPECT_EQ(code2, 2);
+  EXPECT_NE(out2.find("missing key 'executor.hit_workers'"), std::string::npos) << out2;
+  { std::ofstream(dir / "good.yaml") << yaml; }
+  const auto [code3, out3] =
+      test::runServerToExit({"--config", (dir / "good.yaml").string(), "--print-config"});
+  EXPECT_EQ(code3, 0);
+  const auto printed = ServerConfig::fromYamlString(out3, "printed");
+  EXPECT_EQ(printed.toYaml(), yaml);
+}
+
+TEST(Integration, OversizedRequestIsRefusedAndTheServerStaysUp) {
+  TempDir dir("wj-it");
+  ServerProcess server(test::testConfig(dir.path()), dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target(), 1));
+  v1::PlanJumpRequest big = standingRequest(0.5);
+  big.set_request_id(std::string(200 * 1024, 'x'));
+  const auto r = plan(c, big);
+  EXPECT_EQ(r.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << r.status.error_message();
+  EXPECT_TRUE(plan(c, standingRequest(0.5)).ok());
+}
+
+TEST(Integration, VerificationInTheLoop) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.verification.enabled = true;
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  v1::PlanJumpRequest r = standingRequest(0.5);
+  r.mutable_budget()->set_max_verified_candidates(2);
+  const auto a = plan(c, r, 60s);
+  ASSERT_TRUE(a.ok()) << a.status.error_message();
+  expectWholePlan(a.response);
+  const auto& v = a.response.verification();
+  if (!simVerifierAvailable()) {
+    // Built without the sim component: said plainly, never faked.
+    EXPECT_EQ(v.status(), v1::VERIFICATION_STATUS_NOT_RUN);
+    ASSERT_GT(v.failure_reasons_size(), 0);
+    EXPECT_NE(v.failure_reasons(0).find("without the sim component"), std::string::npos);
+    return;
+  }
+  EXPECT_NE(v.status(), v1::VERIFICATION_STATUS_NOT_RUN);
+  EXPECT_EQ(v.candidates_verified(), 2u);
+  EXPECT_LT(v.returned_candidate_rank(), 2u);
+  EXPECT_GT(v.simulated().takeoff().t_s(), 0.0);  // measured in the simulation
+  EXPECT_GT(v.max_envelope_ratio(), 0.0);
+  EXPECT_GT(a.response.stats().verify_ms(), 0.0);
+  // Predicted by the planar model, measured in the simulation: both reported.
+  EXPECT_GT(a.response.predicted().takeoff().t_s(), 0.0);
+  EXPECT_GT(a.response.predicted().apex().com_z_m(), 0.0);
+  if (v.status() == v1::VERIFICATION_STATUS_FAILED) {
+    EXPECT_GT(v.failure_reasons_size(), 0);
+  }
+  // The verified plan is cached with its verification summary.
+  const auto hit = plan(c, r, 60s);
+  ASSERT_TRUE(hit.ok());
+  EXPECT_EQ(hit.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  EXPECT_EQ(hit.response.verification().status(), v.status());
+  EXPECT_EQ(hit.response.verification().candidates_verified(), 2u);
+}
+
+}  // namespace
+}  // namespace wj::server
