@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
   int threads = 2;
   std::optional<std::int64_t> max_evals;
   bool json = false, no_polish = false;
-  app.add_option("--task", task_name, "preset: forward | vertical | backflip");
+  app.add_option("--task", task_name, "preset: forward | forward_hw | vertical | backflip");
   app.add_option("--target", target_text, "custom target dx,z,pitch [m, m, rad] of the CoM");
   app.add_option("--event", event_text, "what --target describes: apex | touchdown");
   app.add_option("--mode", mode_text, "take-off: simultaneous | two-step (default per preset)");

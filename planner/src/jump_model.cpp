@@ -168,6 +168,13 @@ struct Solved {
   PlanarState mid, takeoff, touchdown;
   Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
   double front_wheel_rate_t1 = 0.0;
+  // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
+  // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
+  // moving (docs/planner.md, "Flight").
+  std::array<Eigen::Vector2d, 2> q_to{}, qd_to{};
+  std::array<double, 2> wheel_to{};
+  int n_flight = 0;
+  std::array<double, 257> flight_pitch{}, flight_rate{};
 };
 
 /// Kinematics and statics of one wheel pair at one instant (left leg; right is mirrored).
@@ -279,8 +286,8 @@ struct JumpModelAccess {
     S.VX2 = derivative(S.X2);
     S.VZ2 = derivative(S.Z2);
     S.W2 = derivative(S.P2);
-    S.mid = stateAt(S, S.t1 / 2, g);
-    S.takeoff = stateAt(S, S.t2, g);
+    S.mid = stateAt(M, S, S.t1 / 2, g);
+    S.takeoff = stateAt(M, S, S.t2, g);
 
     // Flight: ballistic CoM, constant pitch rate; t3 is when the CoM descends to the landing
     // height (the touchdown target height, or the landing posture's standing height).
@@ -291,19 +298,122 @@ struct JumpModelAccess {
     S.Tf = (S.takeoff.vz + std::sqrt(disc)) / g;
     if (!(S.Tf > 1e-3)) return false;
     S.t3 = S.t2 + S.Tf;
-    S.touchdown = stateAt(S, S.t3, g);
-
+    Sample smp;
     if (S.two_step) {
       // The front legs hold their t1 posture relative to the body once lifted.
-      Sample smp;
       contactSample(M, S, S.t1, smp, /*phase2=*/false, M.c0_);
       S.front_b_t1 = M.leg_.forward(smp.front.q);
       S.front_wheel_rate_t1 = smp.front.wheel_rate;
     }
+    contactSample(M, S, S.t2, smp, S.two_step, M.c0_);
+    S.q_to = {smp.hind.q, smp.front.q};
+    S.qd_to = {smp.hind.qd, smp.front.qd};
+    S.wheel_to = {smp.hind.wheel_rate, smp.front.wheel_rate};
+    integrateFlightAttitude(M, S);
+    S.touchdown = stateAt(M, S, S.t3, g);
     return true;
   }
 
-  static PlanarState stateAt(const Solved& S, double t, double g) {
+  // Pitch inertia of the whole robot about its CoM, and the angular momentum of the legs'
+  // motion relative to the base (both about +y of the base), for the pairs' postures q and
+  // rates qd. The wheels count as point masses on their axles: in flight they spin freely, so
+  // their spin momentum stays with them and exchanges nothing with the body.
+  static void flightMomentum(const JumpModel& M, const std::array<Eigen::Vector2d, 2>& q,
+                             const std::array<Eigen::Vector2d, 2>& qd, double& i_total, double& h) {
+    auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+      return a.y() * b.x() - a.x() * b.y();  // y component of (a_x, 0, a_z) x (b_x, 0, b_z)
+    };
+    auto Rv = [](double q1, const Eigen::Vector2d& v) {
+      const double sn = std::sin(q1), cs = std::cos(q1);
+      return Eigen::Vector2d(cs * v.x() + sn * v.y(), -sn * v.x() + cs * v.y());
+    };
+    auto dRv = [](double q1, const Eigen::Vector2d& v) {
+      const double sn = std::sin(q1), cs = std::cos(q1);
+      return Eigen::Vector2d(-sn * v.x() + cs * v.y(), -cs * v.x() - sn * v.y());
+    };
+    const double l1 = M.leg_.l1;
+    std::array<Eigen::Vector2d, 4> p, v;  // thigh and lower CoMs of each pair, and rates
+    std::array<double, 4> m{}, i{}, w{};
+    Eigen::Vector2d first = M.moment_fixed_, rate = Eigen::Vector2d::Zero();
+    for (int pair = 0; pair < 2; ++pair) {
+      const JumpModel::Geometry& g = pair == 0 ? M.hind_ : M.front_;
+      const double q1 = q[pair][0], q12 = q[pair][0] + q[pair][1];
+      const Eigen::Vector2d knee(-l1 * std::sin(q1), -l1 * std::cos(q1));
+      const Eigen::Vector2d dknee(-l1 * std::cos(q1), l1 * std::sin(q1));
+      p[2 * pair] = g.hfe_b + Rv(q1, g.c_thigh);
+      v[2 * pair] = dRv(q1, g.c_thigh) * qd[pair][0];
+      p[2 * pair + 1] = g.hfe_b + knee + Rv(q12, g.c_lower);
+      v[2 * pair + 1] = dknee * qd[pair][0] + dRv(q12, g.c_lower) * (qd[pair][0] + qd[pair][1]);
+      m[2 * pair] = 2.0 * g.m_thigh;
+      m[2 * pair + 1] = 2.0 * g.m_lower;
+      i[2 * pair] = 2.0 * g.i_thigh;
+      i[2 * pair + 1] = 2.0 * g.i_lower;
+      w[2 * pair] = qd[pair][0];
+      w[2 * pair + 1] = qd[pair][0] + qd[pair][1];
+    }
+    for (int k = 0; k < 4; ++k) {
+      first += m[k] * p[k];
+      rate += m[k] * v[k];
+    }
+    const Eigen::Vector2d c = first / M.mass_, c_dot = rate / M.mass_;
+    const Eigen::Vector2d c_fixed = M.moment_fixed_ / M.mass_fixed_;
+    i_total = M.i_fixed_ + M.mass_fixed_ * (c_fixed - c).squaredNorm();
+    h = M.mass_fixed_ * cross(c_fixed - c, -c_dot);
+    for (int k = 0; k < 4; ++k) {
+      i_total += i[k] + m[k] * (p[k] - c).squaredNorm();
+      h += i[k] * w[k] + m[k] * cross(p[k] - c, v[k] - c_dot);
+    }
+  }
+
+  // Wheel joint rate of a pair in flight: from its take-off rate towards the ground speed it
+  // will meet at touchdown, done by the end of the legs' landing extension.
+  static double flightWheelRate(const JumpModel& M, const Solved& S, int pair, double t) {
+    const double xi = (t - S.t2) / (M.settings_.extend_end_fraction * S.Tf);
+    return S.wheel_to[pair] + (S.takeoff.vx / M.wheel_radius_ - S.wheel_to[pair]) * smoothstep(xi);
+  }
+
+  // Flight attitude: the total angular momentum about the CoM is conserved from the lift-off
+  // on. It is taken from the take-off kinematics the joint controllers track (body pitch rate,
+  // legs still extending, wheels spinning): when the legs stop and tuck, their momentum goes
+  // into the body. The body's pitch rate follows, and is integrated (trapezoid).
+  static void integrateFlightAttitude(const JumpModel& M, Solved& S) {
+    const int n = M.settings_.samples_flight;
+    S.n_flight = n;
+    double i_to = 0.0, h_to = 0.0;
+    flightMomentum(M, S.q_to, S.qd_to, i_to, h_to);
+    const double h_y = -i_to * S.takeoff.pitch_rate + h_to;
+    double prev_rate = 0.0;
+    for (int k = 0; k <= n; ++k) {
+      const double t = S.t2 + S.Tf * k / n;
+      std::array<Eigen::Vector2d, 2> q, qd;
+      for (int pair = 0; pair < 2; ++pair)
+        q[pair] = flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
+      double i_total = 0.0, h = 0.0;
+      flightMomentum(M, q, qd, i_total, h);
+      const double rate = -(h_y - h) / i_total;  // nose-up = about -y
+      S.flight_rate[k] = rate;
+      S.flight_pitch[k] =
+          k == 0 ? S.takeoff.pitch : S.flight_pitch[k - 1] + 0.5 * (prev_rate + rate) * S.Tf / n;
+      prev_rate = rate;
+    }
+  }
+
+  // The state in flight: ballistic CoM, attitude from the table (cubic Hermite).
+  static PlanarState flightState(const JumpModel& M, const Solved& S, double t) {
+    PlanarState s = ballisticG(S.takeoff, t - S.t2, M.settings_.gravity);
+    const double u = std::clamp((t - S.t2) / S.Tf, 0.0, 1.0) * S.n_flight;
+    const int k = std::min(static_cast<int>(u), S.n_flight - 1);
+    const double a = u - k, dt = S.Tf / S.n_flight;
+    const double h00 = 2 * a * a * a - 3 * a * a + 1, h10 = a * a * a - 2 * a * a + a;
+    const double h01 = -2 * a * a * a + 3 * a * a, h11 = a * a * a - a * a;
+    s.pitch = h00 * S.flight_pitch[k] + h10 * dt * S.flight_rate[k] + h01 * S.flight_pitch[k + 1] +
+              h11 * dt * S.flight_rate[k + 1];
+    s.pitch_rate = (1 - a) * S.flight_rate[k] + a * S.flight_rate[k + 1];
+    return s;
+  }
+
+  static PlanarState stateAt(const JumpModel& M, const Solved& S, double t, double g) {
+    if (t > S.t2 && S.n_flight > 0) return flightState(M, S, t);
     PlanarState s;
     if (t <= S.t1 || !S.two_step) {
       const double tc = std::min(t, S.t1);
@@ -648,7 +758,7 @@ struct JumpModelAccess {
     q_to_front = smp.front.q;
     for (int k = 1; k <= st.samples_flight; ++k) {
       const double t = S.t2 + S.Tf * k / st.samples_flight;
-      const PlanarState s = ballisticG(S.takeoff, t - S.t2, st.gravity);
+      const PlanarState s = flightState(M, S, t);
       const std::array<Eigen::Vector2d, 2> q = {flightPosture(M, S, q_to_hind, t, nullptr),
                                                 flightPosture(M, S, q_to_front, t, nullptr)};
       const Eigen::Vector2d c = comOffset(M, poseOf(q[0]), poseOf(q[1])).c;
@@ -685,7 +795,11 @@ struct JumpModelAccess {
     contactSample(M, S, S.t2, smp, S.two_step, M.c0_);
     out.takeoff = event(S.t2, to, smp.c);
     const double t_apex = std::max(to.vz / g, 0.0);
-    out.apex = event(S.t2 + t_apex, ballisticG(to, t_apex, g), M.c_land_);
+    std::array<Eigen::Vector2d, 2> q_apex;
+    for (int pair = 0; pair < 2; ++pair)
+      q_apex[pair] = flightPosture(M, S, S.q_to[pair], S.t2 + t_apex, nullptr);
+    out.apex = event(S.t2 + t_apex, flightState(M, S, S.t2 + t_apex),
+                     comOffset(M, poseOf(q_apex[0]), poseOf(q_apex[1])).c);
     out.touchdown = event(S.t3, S.touchdown, M.c_land_);
     const PlanarState& s0 = M.initial_;
     const PlanarState& at = tgt.event == TargetEvent::Apex ? out.apex.state : S.touchdown;
@@ -746,6 +860,10 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
     geo.c_lower = (shank.mass * Eigen::Vector2d(shank.com.x(), shank.com.z()) +
                    wheel.mass * Eigen::Vector2d(wheel_c.x(), wheel_c.z())) /
                   geo.m_lower;
+    const Eigen::Vector2d cs(shank.com.x(), shank.com.z()), cw(wheel_c.x(), wheel_c.z());
+    geo.i_thigh = thigh.inertia_com(1, 1);
+    geo.i_lower = shank.inertia_com(1, 1) + shank.mass * (cs - geo.c_lower).squaredNorm() +
+                  wheel.mass * (cw - geo.c_lower).squaredNorm();
     geo.haa_lever = g.p_HT.y() + g.wheel_lateral_offset;
     return geo;
   };
@@ -762,6 +880,20 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
     const Eigen::Vector3d p = X[i] * link.inertia.com;
     mass_fixed_ += link.inertia.mass;
     moment_fixed_ += link.inertia.mass * Eigen::Vector2d(p.x(), p.z());
+  }
+  {
+    const Eigen::Vector2d c_fixed = moment_fixed_ / mass_fixed_;
+    i_fixed_ = 0.0;
+    for (std::size_t i = 0; i < robot_.links().size(); ++i) {
+      const auto& link = robot_.links()[i];
+      if (link.parent_joint >= 0 && robot_.joints()[link.parent_joint].kind != JointKind::HAA)
+        continue;
+      const Eigen::Vector3d p = X[i] * link.inertia.com;
+      const Eigen::Matrix3d Ib =
+          X[i].linear() * link.inertia.inertia_com * X[i].linear().transpose();
+      i_fixed_ +=
+          Ib(1, 1) + link.inertia.mass * (Eigen::Vector2d(p.x(), p.z()) - c_fixed).squaredNorm();
+    }
   }
   c0_ = comInBase(Eigen::Vector2d(q0[model::jointIndex(Leg::LH, JointKind::HFE)],
                                   q0[model::jointIndex(Leg::LH, JointKind::KFE)]),
@@ -1056,13 +1188,10 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const 
       q_to[1] = smp.front.q;
       wheel_to = Eigen::Vector2d(smp.hind.wheel_rate, smp.front.wheel_rate);
     } else {
-      s = JumpModelAccess::ballisticG(S.takeoff, t - S.t2, settings_.gravity);
-      const double xi = (t - S.t2) / (settings_.extend_end_fraction * S.Tf);
+      s = JumpModelAccess::flightState(*this, S, t);
       for (int pair = 0; pair < 2; ++pair) {
-        q[pair] = JumpModelAccess::flightPosture(*this, S, q_to[pair], t, &qd[pair]);
-        // Wheels spin towards the ground speed they will meet at touchdown.
-        wheel_rate[pair] =
-            wheel_to[pair] + (s.vx / wheel_radius_ - wheel_to[pair]) * smoothstep(xi);
+        q[pair] = JumpModelAccess::flightPosture(*this, S, S.q_to[pair], t, &qd[pair]);
+        wheel_rate[pair] = JumpModelAccess::flightWheelRate(*this, S, pair, t);
       }
     }
     plan.centroidal[k] = s;

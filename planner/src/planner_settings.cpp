@@ -106,7 +106,7 @@ void PlannerSettings::validate() const {
         samples_phase1);
   check(samples_phase2 >= 4 && samples_phase2 <= 1000, "sampling.samples_phase2", "in [4, 1000]",
         samples_phase2);
-  check(samples_flight >= 4 && samples_flight <= 1000, "sampling.samples_flight", "in [4, 1000]",
+  check(samples_flight >= 4 && samples_flight <= 256, "sampling.samples_flight", "in [4, 256]",
         samples_flight);
   check(output_dt_s > 0 && output_dt_s <= 0.002, "sampling.output_dt_s", "in (0, 0.002]",
         output_dt_s);

@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   int threads = 2;
   bool json_out = false;
-  app.add_option("--task", task, "forward | vertical | backflip");
+  app.add_option("--task", task, "forward | forward_hw | vertical | backflip");
   app.add_option("--v0", v0, "run-up speed [m/s]");
   app.add_option("--seed", seed, "planner seed");
   app.add_option("--threads", threads, "planner threads")->check(CLI::Range(1, 64));

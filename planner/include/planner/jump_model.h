@@ -123,6 +123,8 @@ class JumpModel {
     Eigen::Vector2d c_thigh = Eigen::Vector2d::Zero();  ///< its CoM in the thigh frame, x-z
     double m_lower = 0.0;                               ///< shank + wheel mass of one leg [kg]
     Eigen::Vector2d c_lower = Eigen::Vector2d::Zero();  ///< their CoM in the shank frame, x-z
+    double i_thigh = 0.0;  ///< thigh pitch inertia about its CoM [kg m^2]
+    double i_lower = 0.0;  ///< shank + wheel (point mass) pitch inertia about their CoM
   };
 
   model::RobotModel robot_;
@@ -137,6 +139,7 @@ class JumpModel {
   double z_land_ = 0.0;
   double mass_fixed_ = 0.0;                                 ///< base and hip links [kg]
   Eigen::Vector2d moment_fixed_ = Eigen::Vector2d::Zero();  ///< their first moment, base x-z
+  double i_fixed_ = 0.0;  ///< pitch inertia of the base and hips about their CoM [kg m^2]
   Eigen::Vector2d c0_ = Eigen::Vector2d::Zero();         ///< CoM in the base at the initial posture
   Eigen::Vector2d c_land_ = Eigen::Vector2d::Zero();     ///< ... and at the landing posture
   Eigen::Vector2d box_half_ = Eigen::Vector2d::Zero();   ///< half box size x, z

@@ -46,7 +46,7 @@ struct PlannerSettings {
   double landing_hfe_rad = 0.8;  ///< posture the legs take in flight and at landing
   double landing_kfe_rad = -1.6;
   double tuck_hfe_rad = 1.4;  ///< posture the legs tuck into in flight, to lift the wheels
-  double tuck_kfe_rad = -2.6;
+  double tuck_kfe_rad = -2.5;
   double tuck_end_fraction = 0.35;      ///< fraction of the flight by which the legs are tucked
   double extend_start_fraction = 0.55;  ///< ... at which they start extending to landing
   double extend_end_fraction = 0.9;     ///< ... by which they are in the landing posture
@@ -54,7 +54,7 @@ struct PlannerSettings {
   // --- discretisation
   int samples_phase1 = 24;     ///< constraint samples on [0, t1]
   int samples_phase2 = 16;     ///< constraint samples on [t1, t2]
-  int samples_flight = 24;     ///< obstacle/body samples on [t2, t3]
+  int samples_flight = 24;     ///< obstacle/body/attitude samples on [t2, t3], <= 256
   double output_dt_s = 0.001;  ///< sample period of the returned references (<= 0.002)
 
   // --- search box of the decision variables (relative to the initial state where noted)
@@ -81,8 +81,8 @@ struct PlannerSettings {
   /// simulation reproduces: docs/planner.md).
   double tolerance_dx_m = 0.05;
   double tolerance_height_m = 0.02;
-  double tolerance_pitch_rad = 0.1;
-  double landing_pitch_tolerance_rad = 0.15;  ///< |pitch at touchdown - upright| for apex targets
+  double tolerance_pitch_rad = 0.25;          ///< the verifier's "landed upright" bound
+  double landing_pitch_tolerance_rad = 0.25;  ///< |pitch at touchdown| for apex targets
 
   // --- solver
   de::Settings de;      ///< Differential Evolution

@@ -15,11 +15,12 @@ struct Scenario {
   InitialState initial;
 };
 
-/// Names accepted by makePreset: "forward", "vertical", "backflip".
+/// Names accepted by makePreset: "forward", "forward_hw", "vertical", "backflip".
 std::vector<std::string> presetNames();
 
 /// Builds a preset for `planner`'s robot and settings. `v0` overrides the run-up speed.
 ///  - forward: v0 = 3.0 m/s, a 0.25 m wall, landing upright 1.9 m ahead, beyond the wall.
+///  - forward_hw: the same over the 0.12 m obstacle of the paper's hardware experiment.
 ///  - vertical: v0 = 0, base apex 0.7 m straight up (apex target).
 ///  - backflip: two-step take-off, a full backward rotation (+2 pi), landing 0.55 m behind.
 /// Throws std::invalid_argument for an unknown name.
