@@ -1,3 +1,447 @@
-int main() {
+// bench_server: end-to-end figures of planner_server on loopback, in one run, printed as JSON.
+//   1. cache hits: round-trip percentiles with N concurrent clients (own connections) and the
+//      hit throughput;
+//   2. cold plans with verification: latency percentiles with the default planner settings and
+//      a generous deadline, and what a 150 ms deadline gets (with and without verification);
+//   3. durability: repeated kill -9 during cache writes (WarmCache), then every committed entry
+//      must be served from the cache and no row may be corrupted;
+//   4. resident memory of a server holding 100,000 cached entries (and of an empty one).
+// Every server is a real planner_server process started here with its own configuration.
+#include <fcntl.h>
+#include <grpcpp/grpcpp.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <future>
+#include <iostream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "planner_client/planner_client.h"
+#include "server/config.h"
+#include "server/solution_store.h"
+#include "wheeljump/planner/v1/jump_planner.grpc.pb.h"
+
+namespace {
+
+namespace v1 = wheeljump::planner::v1;
+using Clock = std::chrono::steady_clock;
+using namespace std::chrono_literals;
+using json = nlohmann::json;
+
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, rank == 0 ? 0 : rank - 1)];
+}
+
+json latencyJson(const std::vector<double>& ms) {
+  return {{"count", ms.size()},
+          {"p50_ms", percentile(ms, 0.50)},
+          {"p90_ms", percentile(ms, 0.90)},
+          {"p99_ms", percentile(ms, 0.99)},
+          {"max_ms", percentile(ms, 1.0)}};
+}
+
+// A planner_server child process.
+class Server {
+ public:
+  Server(const wj::server::ServerConfig& config, const std::filesystem::path& dir,
+         const std::string& name) {
+    const auto config_path = dir / (name + ".yaml");
+    std::ofstream(config_path) << config.toYaml();
+    log_ = dir / (name + ".log");
+    std::filesystem::remove(log_);
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      const int fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      ::execl(WJ_PLANNER_SERVER_BIN, WJ_PLANNER_SERVER_BIN, "--config", config_path.c_str(),
+              static_cast<char*>(nullptr));
+      ::_exit(127);
+    }
+    const auto until = Clock::now() + 120s;
+    while (Clock::now() < until) {
+      std::ifstream in(log_);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      const std::string text = ss.str();
+      const auto at = text.find("listening on ");
+      const auto eol = at == std::string::npos ? at : text.find('\n', at);
+      if (eol != std::string::npos) {
+        const std::string address = text.substr(at + 13, eol - at - 13);
+        target_ = address;
+        return;
+      }
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        throw std::runtime_error("planner_server exited at start:\n" + text);
+      }
+      std::this_thread::sleep_for(20ms);
+    }
+    kill(SIGKILL);
+    throw std::runtime_error("planner_server did not start");
+  }
+  ~Server() { kill(SIGKILL); }
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  const std::string& target() const { return target_; }
+  /// Sends `signal` and waits for the exit; returns the exit code (128 + signal if killed).
+  int kill(int signal) {
+    if (pid_ <= 0) return -1;
+    ::kill(pid_, signal);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  /// Resident set size [MB] from /proc.
+  double rssMb() const {
+    std::ifstream in("/proc/" + std::to_string(pid_) + "/status");
+    std::string line;
+    while (std::getline(in, line))
+      if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+    return -1.0;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  std::filesystem::path log_;
+  std::string target_;
+};
+
+v1::PlanJumpRequest standing(double v0, double height) {
+  v1::PlanJumpRequest r;
+  auto* s = r.mutable_state();
+  s->mutable_base_orientation_w()->set_w(1.0);
+  s->mutable_base_linear_velocity_w_m_s()->set_x(v0);
+  for (int leg = 0; leg < 4; ++leg) {
+    for (const double q : {0.0, 1.0, -2.0, 0.0}) s->add_joint_positions_rad(q);
+    for (int j = 0; j < 4; ++j) s->add_joint_velocities_rad_s(0.0);
+  }
+  auto* t = r.mutable_task();
+  t->set_target_height_m(height);
+  t->set_event(v1::TARGET_EVENT_APEX);
+  t->set_takeoff_mode(v1::TAKEOFF_MODE_SIMULTANEOUS);
+  r.set_request_id("bench");
+  return r;
+}
+
+wj::server::ServerConfig baseConfig(const std::filesystem::path& dir) {
+  wj::server::ServerConfig c;
+  c.listen = "127.0.0.1:0";
+  c.log_level = "warn";
+  c.cache.path = (dir / "cache.sqlite").string();
+  return c;
+}
+
+std::filesystem::path writeFastPlannerSettings(const std::filesystem::path& dir) {
+  const auto p = dir / "planner_fast.yaml";
+  std::ofstream(p) << "de:\n  population_size: 16\n  max_generations: 40\n"
+                      "  max_evaluations: 640\n  stagnation_generations: 15\n"
+                      "polish:\n  enabled: false\n";
+  return p;
+}
+
+// --- 1. cache hits ------------------------------------------------------------------------
+json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
+  auto config = baseConfig(dir);
+  config.cache.path.clear();
+  config.planner.settings_file = writeFastPlannerSettings(dir).string();
+  config.verification.enabled = false;
+  config.executor.hit_workers = 2;
+  Server server(config, dir, "hits");
+  std::vector<v1::PlanJumpRequest> requests;
+  {
+    wj::client::PlannerClient warm([&] {
+      wj::client::ClientOptions o;
+      o.target = server.target();
+      return o;
+    }());
+    for (int i = 0; i < clients; ++i) {
+      requests.push_back(standing(0.1 * i, 0.8));
+      const auto r = warm.planJump(requests.back(), 60s).get();
+      if (!r.ok()) throw std::runtime_error("warm-up plan failed: " + r.status.error_message());
+    }
+  }
+  std::vector<std::vector<double>> per_thread(static_cast<std::size_t>(clients));
+  std::atomic<bool> go{false};
+  std::atomic<long> errors{0}, bytes{0};
+  std::vector<std::thread> threads;
+  for (int i = 0; i < clients; ++i) {
+    threads.emplace_back([&, i] {
+      grpc::ChannelArguments args;
+      args.SetMaxReceiveMessageSize(16 * 1024 * 1024);
+      args.SetInt("wj.bench.client", i);  // one connection per client, not a shared one
+      auto stub = v1::JumpPlanner::NewStub(
+          grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), args));
+      const auto& request = requests[static_cast<std::size_t>(i)];
+      v1::PlanJumpResponse response;
+      {  // connect before the clock starts
+        grpc::ClientContext ctx;
+        ctx.set_deadline(std::chrono::system_clock::now() + 10s);
+        (void)stub->PlanJump(&ctx, request, &response);
+      }
+      while (!go.load()) std::this_thread::yield();
+      const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+      auto& out = per_thread[static_cast<std::size_t>(i)];
+      while (Clock::now() < end) {
+        grpc::ClientContext ctx;
+        ctx.set_deadline(std::chrono::system_clock::now() + 5s);
+        const auto t0 = Clock::now();
+        const grpc::Status s = stub->PlanJump(&ctx, request, &response);
+        out.push_back(msSince(t0));
+        if (!s.ok() || response.source() != v1::PLAN_SOURCE_CACHE_HIT) ++errors;
+        bytes = static_cast<long>(response.ByteSizeLong());
+      }
+    });
+  }
+  const auto t0 = Clock::now();
+  go = true;
+  for (auto& t : threads) t.join();
+  const double elapsed_s = msSince(t0) / 1e3;
+  std::vector<double> all;
+  for (const auto& v : per_thread) all.insert(all.end(), v.begin(), v.end());
+  json j = latencyJson(all);
+  j["clients"] = clients;
+  j["duration_s"] = elapsed_s;
+  j["throughput_req_s"] = static_cast<double>(all.size()) / elapsed_s;
+  j["errors_or_not_hits"] = errors.load();
+  j["response_bytes"] = bytes.load();
+  j["target_p99_ms"] = 1.0;
+  j["target_throughput_req_s"] = 10000.0;
+  j["meets_p99_target"] = percentile(all, 0.99) <= 1.0;
+  j["meets_throughput_target"] = static_cast<double>(all.size()) / elapsed_s >= 10000.0;
+  return j;
+}
+
+// --- 2. cold plans with verification -------------------------------------------------------
+json benchCold(const std::filesystem::path& dir, int plans, std::chrono::milliseconds deadline,
+               const std::string& name, bool verification = true) {
+  auto config = baseConfig(dir);
+  config.cache.path.clear();  // every request cold
+  config.deadlines.max_s = 120.0;
+  config.verification.enabled = verification;
+  Server server(config, dir, name);
+  wj::client::ClientOptions o;
+  o.target = server.target();
+  wj::client::PlannerClient c(o);
+  std::vector<double> ms, verify_ms, de_ms;
+  int ok = 0, feasible = 0, passed = 0, verified = 0;
+  std::map<std::string, int> errors;
+  for (int i = 0; i < plans; ++i) {
+    // A different target height per request: no neighbour can warm-start it.
+    const auto t0 = Clock::now();
+    const auto r = c.planJump(standing(0.0, 0.76 + 0.01 * i), deadline).get();
+    ms.push_back(msSince(t0));
+    if (!r.ok()) {
+      ++errors[grpc::Status(r.status).error_message().substr(0, 60) + " (" +
+               std::to_string(static_cast<int>(r.status.error_code())) + ")"];
+      continue;
+    }
+    ++ok;
+    feasible += r.response.feasibility().feasible() ? 1 : 0;
+    const auto status = r.response.verification().status();
+    verified += status != v1::VERIFICATION_STATUS_NOT_RUN ? 1 : 0;
+    passed += status == v1::VERIFICATION_STATUS_PASSED ? 1 : 0;
+    verify_ms.push_back(r.response.stats().verify_ms());
+    de_ms.push_back(r.response.stats().de_ms());
+  }
+  json j = latencyJson(ms);
+  j["deadline_ms"] = deadline.count();
+  j["verification_enabled"] = verification;
+  j["answered"] = ok;
+  j["feasible"] = feasible;
+  j["verified"] = verified;
+  j["verification_passed"] = passed;
+  j["de_p50_ms"] = percentile(de_ms, 0.5);
+  j["verify_p50_ms"] = percentile(verify_ms, 0.5);
+  j["errors"] = errors;
+  j["target_p50_ms"] = 150.0;
+  j["meets_p50_target"] = percentile(ms, 0.5) <= 150.0 && ok == plans;
+  return j;
+}
+
+// --- 3. kill -9 during cache writes --------------------------------------------------------
+json benchKill(const std::filesystem::path& dir, int rounds, std::uint32_t seed) {
+  auto config = baseConfig(dir);
+  config.planner.settings_file = writeFastPlannerSettings(dir).string();
+  config.verification.enabled = false;
+  std::mt19937 rng(seed);
+  std::set<long> committed;  // v0 in mm/s of every grid point reported done before a kill
+  std::vector<int> per_round;
+  for (int round = 0; round < rounds; ++round) {
+    Server server(config, dir, "kill");
+    wj::client::ClientOptions o;
+    o.target = server.target();
+    o.max_attempts = 1;
+    std::mutex mu;
+    int received = 0;
+    {
+      wj::client::PlannerClient c(o);
+      v1::WarmCacheRequest w;
+      *w.mutable_task() = standing(0.0, 0.8).task();
+      // Disjoint grids per round, in 0.05 m/s steps over [-1, 4].
+      const double lo = -1.0 + 0.05 * ((round * 13) % 90);
+      w.set_v0_min_m_s(lo);
+      w.set_v0_max_m_s(std::min(4.0, lo + 1.0));
+      w.set_v0_step_m_s(0.05);
+      std::promise<void> done;
+      c.warmCache(
+          w,
+          [&](const v1::WarmCacheProgress& p) {
+            std::lock_guard lock(mu);
+            committed.insert(std::lround(p.v0_m_s() * 1000));
+            ++received;
+          },
+          [&](wj::client::WarmResult) { done.set_value(); }, 120s);
+      std::this_thread::sleep_for(std::chrono::milliseconds(300 + rng() % 1200));
+      server.kill(SIGKILL);
+      done.get_future().wait();
+    }
+    per_round.push_back(received);
+  }
+  // Restart once more: every committed point must be a hit.
+  Server server(config, dir, "kill");
+  wj::client::ClientOptions o;
+  o.target = server.target();
+  wj::client::PlannerClient c(o);
+  int lost = 0;
+  for (const long mm : committed) {
+    const auto r = c.planJump(standing(static_cast<double>(mm) / 1000.0, 0.8), 30s).get();
+    if (!r.ok() || r.response.source() != v1::PLAN_SOURCE_CACHE_HIT) ++lost;
+  }
+  server.kill(SIGTERM);
+  wj::server::SolutionStore store(config.cache.path, true, 100000000);
+  std::int64_t rows = 0;
+  store.forEachNewest(100000000, [&](const auto&, const auto&) { ++rows; });
+  return {{"rounds", rounds},
+          {"committed_entries", committed.size()},
+          {"committed_per_round", per_round},
+          {"lost", lost},
+          {"corrupted_rows", store.counters().corrupt_rows},
+          {"rows_after", rows},
+          {"database_recreated", store.counters().recreated},
+          {"meets_target", lost == 0 && store.counters().corrupt_rows == 0}};
+}
+
+// --- 4. memory with N cached entries -------------------------------------------------------
+json benchMemory(const std::filesystem::path& dir, int entries) {
+  auto empty_config = baseConfig(dir);
+  empty_config.cache.path.clear();
+  empty_config.verification.enabled = false;
+  double empty_rss = 0.0;
+  {
+    Server server(empty_config, dir, "mem-empty");
+    std::this_thread::sleep_for(500ms);
+    empty_rss = server.rssMb();
+  }
+  const auto path = dir / "memory.sqlite";
+  {
+    wj::server::SolutionStore store(path, false, 100000000);
+    std::vector<std::pair<wj::server::CacheKey, wj::server::CachedSolution>> batch;
+    for (int i = 0; i < entries; ++i) {
+      wj::server::CacheKey k;
+      k.v0_bin = i % 100 - 20;
+      k.target_height_bin = i / 100;
+      k.seed = 1;
+      wj::server::CachedSolution s;
+      for (std::size_t d = 0; d < s.u.size(); ++d) s.u[d] = 0.01 * static_cast<double>(d + i % 7);
+      s.t1 = 0.3;
+      s.t2 = 0.3;
+      s.t3 = 0.9;
+      s.verification.status = wj::server::VerificationStatus::Passed;
+      batch.emplace_back(k, s);
+      if (batch.size() == 10000) {
+        store.putMany(batch);
+        batch.clear();
+      }
+    }
+    if (!batch.empty()) store.putMany(batch);
+  }
+  auto config = empty_config;
+  config.cache.path = path.string();
+  config.cache.max_memory_entries = entries;
+  Server server(config, dir, "mem-full");
+  wj::client::ClientOptions o;
+  o.target = server.target();
+  wj::client::PlannerClient c(o);
+  const auto stats = c.getStats(10s).get();
+  std::this_thread::sleep_for(500ms);
+  const double rss = server.rssMb();
+  return {{"entries_loaded", stats.response.cache_entries()},
+          {"rss_mb", rss},
+          {"rss_empty_mb", empty_rss},
+          {"bytes_per_entry", (rss - empty_rss) * 1024.0 * 1024.0 / entries},
+          {"target_rss_mb", 300.0},
+          {"meets_target",
+           rss <= 300.0 && stats.response.cache_entries() == static_cast<std::uint64_t>(entries)}};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"End-to-end benchmark of planner_server on loopback; prints JSON."};
+  int clients = 8, cold_plans = 10, kill_rounds = 10, entries = 100000;
+  double hit_seconds = 5.0;
+  std::uint32_t seed = 1;
+  std::string only;
+  app.add_option("--clients", clients, "concurrent clients of the hit benchmark")
+      ->capture_default_str();
+  app.add_option("--hit-seconds", hit_seconds, "duration of the hit benchmark")
+      ->capture_default_str();
+  app.add_option("--cold-plans", cold_plans, "cold plans per deadline")->capture_default_str();
+  app.add_option("--kill-rounds", kill_rounds, "kill -9 restarts")->capture_default_str();
+  app.add_option("--entries", entries, "cached entries for the memory figure")
+      ->capture_default_str();
+  app.add_option("--seed", seed, "seed of the kill instants")->capture_default_str();
+  app.add_option("--only", only, "run one part: hits, cold, kill, memory");
+  CLI11_PARSE(app, argc, argv);
+  ::signal(SIGPIPE, SIG_IGN);
+
+  std::string pattern =
+      (std::filesystem::temp_directory_path() / "wj-bench-server-XXXXXX").string();
+  if (!::mkdtemp(pattern.data())) return 1;
+  const std::filesystem::path dir = pattern;
+  json out;
+  out["machine"] = {{"hardware_threads", std::thread::hardware_concurrency()}};
+  try {
+    if (only.empty() || only == "hits") out["cache_hits"] = benchHits(dir, clients, hit_seconds);
+    if (only.empty() || only == "cold") {
+      out["cold_plan_with_verification"] = benchCold(dir, cold_plans, 60s, "cold");
+      out["cold_plan_150ms_deadline"] = benchCold(dir, cold_plans, 150ms, "cold150");
+      out["cold_plan_150ms_deadline_no_verification"] =
+          benchCold(dir, cold_plans, 150ms, "cold150nv", false);
+    }
+    if (only.empty() || only == "kill") out["kill9_durability"] = benchKill(dir, kill_rounds, seed);
+    if (only.empty() || only == "memory") out["memory"] = benchMemory(dir, entries);
+  } catch (const std::exception& e) {
+    out["error"] = e.what();
+    std::cout << out.dump(2) << std::endl;
+    std::filesystem::remove_all(dir);
+    return 1;
+  }
+  std::cout << out.dump(2) << std::endl;
+  std::filesystem::remove_all(dir);
   return 0;
 }

@@ -184,6 +184,41 @@ void SolutionStore::put(const CacheKey& key, const CachedSolution& solution) {
   if (rows_ > max_rows_) pruneLocked();
 }
 
+void SolutionStore::putMany(const std::vector<std::pair<CacheKey, CachedSolution>>& rows) {
+  std::lock_guard lock(mu_);
+  exec("BEGIN IMMEDIATE");
+  try {
+    for (const auto& [key, solution] : rows) {
+      const std::string k = key.bytes();
+      const std::string payload = encodeSolution(solution);
+      StatementScope scope(put_);
+      sqlite3_bind_blob(put_, 1, k.data(), static_cast<int>(k.size()), SQLITE_STATIC);
+      sqlite3_bind_blob(put_, 2, payload.data(), static_cast<int>(payload.size()), SQLITE_STATIC);
+      sqlite3_bind_int64(put_, 3, static_cast<sqlite3_int64>(rowChecksum(k, payload)));
+      sqlite3_bind_int64(put_, 4, next_seq_);
+      if (sqlite3_step(put_) != SQLITE_DONE)
+        throw std::runtime_error("solution store " + path_.string() +
+                                 ": put: " + sqlite3_errmsg(db_));
+      ++next_seq_;
+    }
+    exec("COMMIT");
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    std::lock_guard c(counters_mu_);
+    ++counters_.write_errors;
+    throw;
+  }
+  {
+    std::lock_guard c(counters_mu_);
+    counters_.writes += static_cast<std::int64_t>(rows.size());
+  }
+  // Recount: the batch may have replaced existing rows.
+  sqlite3_stmt* st = prepare("SELECT COUNT(*) FROM solutions");
+  if (sqlite3_step(st) == SQLITE_ROW) rows_ = sqlite3_column_int64(st, 0);
+  sqlite3_finalize(st);
+  if (rows_ > max_rows_) pruneLocked();
+}
+
 void SolutionStore::pruneLocked() {
   // Keep the newest max_rows_ rows (seq is the write order).
   sqlite3_stmt* st = prepare(

@@ -11,6 +11,8 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "server/cache_key.h"
 #include "server/cached_solution.h"
@@ -44,6 +46,9 @@ class SolutionStore {
   /// Inserts or replaces the row of `key`; returns when committed. Throws std::runtime_error on
   /// failure (the caller keeps the solution in memory).
   void put(const CacheKey& key, const CachedSolution& solution);
+  /// Inserts or replaces many rows in one transaction (bulk loads, benchmarks); returns when
+  /// committed. Throws std::runtime_error on failure (nothing of the batch is written then).
+  void putMany(const std::vector<std::pair<CacheKey, CachedSolution>>& rows);
   /// The row of `key` if it exists and passes its checksum.
   std::optional<CachedSolution> get(const CacheKey& key);
   /// Calls `visit` for every valid row, most recently written first, at most `limit` rows.
