@@ -11,6 +11,9 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kInvalidCost = 1e16;
+// Fixed-point steps for the posture-dependent CoM offset per sample, warm-started from the
+// previous sample (the contraction factor is the legs' mass fraction, ~0.35), plus a final pass.
+constexpr int kCoMIterations = 1;
 
 // Fixed-capacity polynomial in ascending powers: allocation-free for the DE's hot path.
 struct Poly {
@@ -101,7 +104,7 @@ double boxDistance(const BoxObstacle& box, const Eigen::Vector2d& p) {
   const double dz = std::max(p.y() - box.height, 0.0);
   if (dx == 0.0 && dz == 0.0)
     return -std::min({p.x() - box.x_min, box.x_max - p.x(), box.height - p.y()});
-  return std::hypot(dx, dz);
+  return std::sqrt(dx * dx + dz * dz);  // not std::hypot: 10x slower, no overflow risk here
 }
 
 // One axis (x or z) of the take-off: force polynomials from sampled positions. Accelerations
@@ -525,7 +528,7 @@ struct JumpModelAccess {
     if (phase2) pF = M.leg_.inversePose(S.front_b_t1, &F.reach);
     Eigen::Vector2d c = c_guess;
     ComOffset co;
-    for (int it = 0; it < 3; ++it) {
+    for (int it = 0; it < kCoMIterations; ++it) {
       pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach);
       if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach);
       co = comOffset(M, pH, pF);
