@@ -19,6 +19,8 @@ PACKAGES=(
   libsqlite3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # service tests: TLS certificates (openssl), the libFuzzer build (clang, libclang-rt-14-dev)
+  openssl clang libclang-rt-14-dev
   # plots
   gnuplot-nox
 )

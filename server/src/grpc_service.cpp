@@ -51,6 +51,7 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
     core.recordRequest();
     if (!service_.admit()) {
       admitted_ = false;
+      core.recordBusy();
       Finish(tooManyCalls(service_.config_.limits.max_inflight_calls));
       return;
     }
@@ -104,6 +105,7 @@ class WarmCacheReactor final : public grpc::ServerWriteReactor<v1::WarmCacheProg
     auto& core = service_.core_;
     if (!service_.admit()) {
       admitted_ = false;
+      core.recordBusy();
       Finish(tooManyCalls(service_.config_.limits.max_inflight_calls));
       return;
     }

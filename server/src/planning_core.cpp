@@ -209,7 +209,7 @@ void PlanningCore::plan(PlanRequest request, std::shared_ptr<PlanCall> call) {
   // A call cancelled after its deadline counts as a deadline miss.
   call->addCancelHook([this, weak = std::weak_ptr<PlanCall>(call)] {
     const auto c = weak.lock();
-    if (c && Clock::now() >= c->deadline()) deadline_exceeded_.fetch_add(1);
+    if (c && !c->completed() && Clock::now() >= c->deadline()) deadline_exceeded_.fetch_add(1);
   });
   const CacheKey key = keyOf(request);
   std::optional<CachedSolution> hit;
@@ -529,9 +529,12 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     stored_verification.verify_ms = static_cast<float>(answer.stats.verify_ms);
   } else {
     answer.plan = std::move(result.plan);
-    if (!request.skip_verification && config_.verification.enabled)
-      answer.verification.failure_reasons.push_back(
-          "verification unavailable: this server was built without the sim component");
+    std::string why = "not run: skipped by the request (budget.skip_verification)";
+    if (!config_.verification.enabled)
+      why = "not run: disabled in the server configuration (verification.enabled)";
+    else if (!request.skip_verification)
+      why = "verification unavailable: this server was built without the sim component";
+    answer.verification.failure_reasons.push_back(why);
   }
   const auto& cand = result.candidates[chosen];
   answer.evaluation = cand.evaluation;

@@ -102,6 +102,9 @@ TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
   EXPECT_EQ(miss.response.request_id(), "robot-42");
   expectWholePlan(miss.response);
   EXPECT_EQ(miss.response.verification().status(), v1::VERIFICATION_STATUS_NOT_RUN);
+  ASSERT_EQ(miss.response.verification().failure_reasons_size(), 1);
+  EXPECT_NE(miss.response.verification().failure_reasons(0).find("verification.enabled"),
+            std::string::npos);
   EXPECT_GT(miss.response.stats().evaluations(), 0u);
   EXPECT_EQ(miss.response.stats().cache_key().size(), 2 * CacheKey::kBytes);
   const auto hit = plan(c, standingRequest(1.01));
@@ -213,6 +216,28 @@ TEST(Integration, FullQueueIsResourceExhausted) {
   EXPECT_GE(exhausted, 3);  // one running, one queued, the rest refused
   EXPECT_GE(ok, 1);
   EXPECT_EQ(stats(c).rejected_queue_full(), static_cast<std::uint64_t>(exhausted));
+}
+
+TEST(Integration, CallsInFlightAreBounded) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  config.executor.plan_queue = 64;
+  config.limits.max_inflight_calls = 2;
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target(), 1));
+  std::vector<std::future<client::PlanResult>> calls;
+  for (int i = 0; i < 5; ++i) calls.push_back(c.planJump(standingRequest(0.2 * i), 2000ms));
+  int refused = 0;
+  for (auto& f : calls) {
+    const auto r = f.get();
+    if (r.status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+      ++refused;
+      EXPECT_NE(r.status.error_message().find("limits.max_inflight_calls"), std::string::npos);
+    }
+  }
+  EXPECT_EQ(refused, 3);
+  EXPECT_EQ(stats(c).rejected_queue_full(), 3u);
 }
 
 TEST(Integration, TheDeadlineBecomesTheBudget) {

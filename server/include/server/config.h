@@ -52,9 +52,9 @@ struct VerificationConfig {
   int default_candidates = 2;     ///< candidates verified when the request says 0, >= 1
   int max_candidates = 8;         ///< requests asking for more are capped to this, >= 1
   double budget_fraction = 0.4;   ///< share of the remaining time reserved for verification
-  double max_apex_height_error_m = 0.08;       ///< acceptance: |simulated - predicted| apex
-  double max_touchdown_dx_error_m = 0.15;      ///< acceptance: touchdown x error [m]
-  double max_touchdown_pitch_error_rad = 0.3;  ///< acceptance: touchdown pitch error [rad]
+  double max_apex_height_error_m = 0.05;        ///< acceptance: |simulated - predicted| apex
+  double max_touchdown_dx_error_m = 0.15;       ///< acceptance: touchdown x error [m]
+  double max_touchdown_pitch_error_rad = 0.35;  ///< acceptance: touchdown pitch error [rad]
 };
 
 /// Solution cache keyed by the initial velocity (docs/service.md, "Cache").

@@ -142,6 +142,8 @@ class PlanningCore {
   /// Counts a PlanJump call received (valid or not) / refused as invalid.
   void recordRequest() { requests_.fetch_add(1); }
   void recordInvalid() { rejected_invalid_.fetch_add(1); }
+  /// Counts a call refused because limits.max_inflight_calls were in progress.
+  void recordBusy() { rejected_queue_full_.fetch_add(1); }
   StatsSnapshot stats() const;
 
   /// Refuses new work (UNAVAILABLE), abandons queued work, waits for running work, flushes the
