@@ -215,18 +215,24 @@ TEST(WholeBody, WheelLawAddsTractionAndSpeedError) {
       sensors.joints[robotJointIndex(leg, j)].q = cm.nominalJoints()[kLegDofs * leg + j];
   State measured = x;
   measured[state_index::kVel] = 0.9;  // 0.1 m/s slower than planned
+  const double r = robot.wheelRadius();
+  for (int leg = 0; leg < kNumLegs; ++leg)
+    sensors.joints[robotJointIndex(leg, 3)].qd = 0.9 / r;  // rolling without slip
+  sensors.joints[robotJointIndex(3, 3)].qd = 0.0;          // RH slips: locked wheel
   model::JointCommands cmd{};
   WholeBodyOutput diag;
   wbc.calcCommands(0.2, policy, measured, sensors, {true, true, false, true},
                    Eigen::Vector3d::UnitZ(), cmd, diag);
   for (const int leg : {0, 1, 3}) {
     const model::JointCommand& c = cmd[robotJointIndex(leg, 3)];
-    EXPECT_NEAR(c.tau_ff, s.wheel_kd * 0.1 + 20.0 * robot.wheelRadius(), 1e-9);
+    // Paper: tau = K_d (v_des - v) + f_t r; the slip damper adds only for the slipping wheel.
+    const double slip = leg == 3 ? 0.9 / r : 0.0;
+    EXPECT_NEAR(c.tau_ff, s.wheel_kd * 0.1 + 20.0 * r + s.wheel_slip_kd * slip, 1e-9);
     EXPECT_EQ(c.kp, 0.0);
   }
   // The swinging wheel spins at the rolling speed of its centre.
   const model::JointCommand& sw = cmd[robotJointIndex(2, 3)];
-  EXPECT_NEAR(sw.qd_des, 0.9 / robot.wheelRadius(), 1e-9);
+  EXPECT_NEAR(sw.qd_des, 0.9 / r, 1e-9);
   EXPECT_GT(sw.kd, 0.0);
   // Legs track the planned posture; the swinging leg carries no contact force.
   EXPECT_EQ(diag.u.segment<3>(input_index::force(2)).norm(), 0.0);

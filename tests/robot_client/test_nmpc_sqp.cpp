@@ -118,7 +118,12 @@ TEST_F(SqpTest, DisturbedTrotConvergesAndMeetsEveryEquality) {
                   0.0);
       } else {
         EXPECT_LT(solver.inputs()[k].segment<3>(input_index::force(leg)).norm(), 1e-6);
-        EXPECT_NEAR(v.z(), node.swing_normal_velocity[leg], 1e-6);
+        // Paper Eq. 7 with the height feedback: n.v = v_swing + k (height error).
+        EXPECT_NEAR(v.z(),
+                    node.swing_normal_velocity[leg] +
+                        ocp.settings().swing_position_gain *
+                            ocp.calcSwingHeightError(node, leg, solver.states()[k], data),
+                    1e-6);
       }
     }
   }

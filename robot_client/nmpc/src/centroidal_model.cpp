@@ -91,7 +91,10 @@ void CentroidalModel::calcLegKinematics(int leg, const Eigen::Vector3d& q_leg,
   R = R * c.X_PJ[kLegDofs].linear();
   out.p_B = p;
   out.axis_B = R * c.axis[kLegDofs];
-  for (int j = 0; j < kLegDofs; ++j) out.J.col(j) = z[j].cross(p - o[j]);
+  for (int j = 0; j < kLegDofs; ++j) {
+    out.J.col(j) = z[j].cross(p - o[j]);
+    out.joint_axes_B.col(j) = z[j];
+  }
   // dJ_j/dq_k = z_k x J_j for k <= j (joint k moves joint j's axis and origin with the foot),
   // and z_j x J_k for k > j (only the foot moves).
   for (int k = 0; k < kLegDofs; ++k) {

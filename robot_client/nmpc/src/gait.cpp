@@ -44,7 +44,7 @@ Gait GaitSchedule::gaitAt(double t) const {
   return entries_[entryAt(t)].gait;
 }
 
-bool GaitSchedule::findSwing(int leg, double t, double& t0, double& t1) const {
+bool GaitSchedule::calcSwingInterval(int leg, double t, double& t0, double& t1) const {
   const std::size_t i = entryAt(t);
   const Entry& e = entries_[i];
   if (e.gait != Gait::Trot || t < e.t_start) return false;
@@ -63,20 +63,20 @@ bool GaitSchedule::findSwing(int leg, double t, double& t0, double& t1) const {
 ContactFlags GaitSchedule::contactFlags(double t) const {
   ContactFlags flags{};
   double t0 = 0.0, t1 = 0.0;
-  for (int leg = 0; leg < kNumLegs; ++leg) flags[leg] = !findSwing(leg, t, t0, t1);
+  for (int leg = 0; leg < kNumLegs; ++leg) flags[leg] = !calcSwingInterval(leg, t, t0, t1);
   return flags;
 }
 
 double GaitSchedule::swingNormalVelocity(int leg, double t) const {
   double t0 = 0.0, t1 = 0.0;
-  if (!findSwing(leg, t, t0, t1)) return 0.0;
+  if (!calcSwingInterval(leg, t, t0, t1)) return 0.0;
   const double T = t1 - t0, s = (t - t0) / T;
   return settings_.swing_height_m * 192.0 * s * s * (1.0 - s) * (1.0 - s) * (1.0 - 2.0 * s) / T;
 }
 
 double GaitSchedule::swingHeight(int leg, double t) const {
   double t0 = 0.0, t1 = 0.0;
-  if (!findSwing(leg, t, t0, t1)) return 0.0;
+  if (!calcSwingInterval(leg, t, t0, t1)) return 0.0;
   const double s = (t - t0) / (t1 - t0);
   return settings_.swing_height_m * 64.0 * std::pow(s * (1.0 - s), 3);
 }

@@ -21,7 +21,36 @@ void requireBarrier(const BarrierSettings& b, const char* name) {
                                 ": mu and delta must be > 0");
 }
 
+// Swing spline of `leg` at t: lift-off and touchdown heights blended by the quintic
+// smoothstep sigma(s) = 10 s^3 - 15 s^4 + 6 s^5, plus the bump H 64 s^3 (1 - s)^3 (paper
+// Eq. 7 is its derivative along the normal). Zero in contact.
+void calcSwingTarget(const Targets& targets, int leg, double t, double& height, double& velocity) {
+  height = velocity = 0.0;
+  double t0 = 0.0, t1 = 0.0;
+  if (!targets.gait.calcSwingInterval(leg, t, t0, t1)) return;
+  double h0 = 0.0, h1 = 0.0;
+  for (int i = 0; i < targets.num_swings[leg]; ++i) {
+    const SwingHeights& sw = targets.swings[leg][i];
+    if (std::abs(sw.t_liftoff - t0) < 1e-9 && std::abs(sw.t_touchdown - t1) < 1e-9) {
+      h0 = sw.h_liftoff;
+      h1 = sw.h_touchdown;
+    }
+  }
+  const double T = t1 - t0, s = (t - t0) / T, H = targets.gait.settings().swing_height_m;
+  const double sigma = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);
+  const double dsigma = 30.0 * s * s * (1.0 - s) * (1.0 - s);
+  height = (1.0 - sigma) * h0 + sigma * h1 + H * 64.0 * std::pow(s * (1.0 - s), 3);
+  velocity = (dsigma * (h1 - h0) + H * 192.0 * s * s * (1.0 - s) * (1.0 - s) * (1.0 - 2.0 * s)) / T;
+}
+
 }  // namespace
+
+double calcTerrainHeight(const std::vector<TerrainBox>& boxes, double x, double y) {
+  double h = 0.0;
+  for (const TerrainBox& b : boxes)
+    if (x >= b.x_min && x <= b.x_max && y >= b.y_min && y <= b.y_max) h = std::max(h, b.height);
+  return h;
+}
 
 TerrainPlane TerrainPlane::flat(double height_m) {
   TerrainPlane p;
@@ -72,6 +101,8 @@ void ProblemSettings::validate() const {
   requireBarrier(joint_speed_barrier, "joint_speed_barrier");
   if (!(joint_speed_fraction > 0.0 && joint_speed_fraction <= 1.0))
     throw std::invalid_argument("ProblemSettings.joint_speed_fraction must be in (0, 1]");
+  if (!(swing_position_gain >= 0.0))
+    throw std::invalid_argument("ProblemSettings.swing_position_gain must be >= 0");
 }
 
 CentroidalOcp::CentroidalOcp(CentroidalModel model, const ProblemSettings& settings)
@@ -96,10 +127,11 @@ NodeTargets CentroidalOcp::calcNodeTargets(const Targets& targets, double t) con
   node.t = t;
   node.contact = targets.gait.contactFlags(t);
   node.normal = targets.terrain.normal;
+  node.terrain_point = targets.terrain.point;
   node.x_ref = targets.reference.interpolate(t);
   int stance = 0;
   for (int leg = 0; leg < kNumLegs; ++leg) {
-    node.swing_normal_velocity[leg] = targets.gait.swingNormalVelocity(leg, t);
+    calcSwingTarget(targets, leg, t, node.swing_height[leg], node.swing_normal_velocity[leg]);
     stance += node.contact[leg] ? 1 : 0;
   }
   node.u_ref.setZero();
@@ -115,6 +147,12 @@ int CentroidalOcp::numEqualities(const ContactFlags& contact) {
   int m = 0;
   for (const bool c : contact) m += c ? 2 : 4;
   return m;
+}
+
+double CentroidalOcp::calcSwingHeightError(const NodeTargets& node, int leg, const State& x,
+                                           const ModelData& data) const {
+  const Eigen::Vector3d p = model_.calcWheelCenter(leg, x, data);
+  return model_.wheelRadius() + node.swing_height[leg] - node.normal.dot(p - node.terrain_point);
 }
 
 double CentroidalOcp::calcFrictionMargin(const Eigen::Vector3d& f, const Eigen::Vector3d& n) const {
@@ -227,7 +265,8 @@ void CentroidalOcp::calcEqualities(const NodeTargets& node, const State& x, cons
     } else {
       g.segment<3>(row) = u.segment<3>(input_index::force(leg));
       row += 3;
-      g[row++] = n.dot(v) - node.swing_normal_velocity[leg];
+      g[row++] = n.dot(v) - node.swing_normal_velocity[leg] -
+                 settings_.swing_position_gain * calcSwingHeightError(node, leg, x, data);
     }
   }
 }
@@ -261,8 +300,14 @@ void CentroidalOcp::calcEqualitiesLinear(const NodeTargets& node, const State& x
       out.g.segment<3>(row) = u.segment<3>(input_index::force(leg));
       out.D.block<3, 3>(row, input_index::force(leg)).setIdentity();
       row += 3;
-      out.g[row] = n.dot(wv.v) - node.swing_normal_velocity[leg];
-      out.C.row(row) = n.transpose() * wv.dx;
+      out.g[row] = n.dot(wv.v) - node.swing_normal_velocity[leg] -
+                   settings_.swing_position_gain * calcSwingHeightError(node, leg, x, data);
+      // d(height error)/dx = -n' d(p_wheel)/dx; p_wheel = p + R s(q).
+      Eigen::Matrix<double, 1, kStateDim> dp = Eigen::Matrix<double, 1, kStateDim>::Zero();
+      dp.segment<3>(state_index::kPos) = n.transpose();
+      for (int i = 0; i < 3; ++i) dp[state_index::kTheta + i] = n.dot(data.dR[i] * data.s_B[leg]);
+      dp.segment<kLegDofs>(state_index::joints(leg)) = n.transpose() * data.R * data.legs[leg].J;
+      out.C.row(row) = n.transpose() * wv.dx + settings_.swing_position_gain * dp;
       out.D.block<1, 3>(row, iqd) = n.transpose() * wv.dqd;
       ++row;
     }

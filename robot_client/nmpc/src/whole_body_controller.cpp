@@ -7,8 +7,8 @@ namespace wj::nmpc {
 void WholeBodySettings::validate() const {
   if (!(leg_kp >= 0.0 && leg_kd >= 0.0))
     throw std::invalid_argument("WholeBodySettings: leg_kp and leg_kd must be >= 0");
-  if (!(wheel_kd >= 0.0 && swing_wheel_kd >= 0.0))
-    throw std::invalid_argument("WholeBodySettings: wheel_kd and swing_wheel_kd must be >= 0");
+  if (!(wheel_kd >= 0.0 && swing_wheel_kd >= 0.0 && wheel_slip_kd >= 0.0))
+    throw std::invalid_argument("WholeBodySettings: wheel gains must be >= 0");
   if (!(max_feedback_force_n >= 0.0))
     throw std::invalid_argument("WholeBodySettings.max_feedback_force_n must be >= 0");
 }
@@ -99,14 +99,22 @@ void WholeBodyController::calcCommands(double t, const Policy& policy, const Sta
     const double tn = tangent.norm();
     if (tn > 1e-6) tangent /= tn;
     const double v_t = tangent.dot(model_.calcWheelVelocity(leg, x, u_meas, data));
-    model::JointCommand& c = out[robotJointIndex(leg, 3)];
+    // Spin of the shank about the wheel axis: the wheel joint speed that rolls at speed v is
+    // v / r minus it.
+    const Eigen::Vector3d qd_leg = u_meas.segment<kLegDofs>(input_index::jointVel(leg));
+    const double shank_spin =
+        axis.dot(x.segment<3>(state_index::kOmega) + R * (data.legs[leg].joint_axes_B * qd_leg));
+    const double r = model_.wheelRadius();
+    const int iw = robotJointIndex(leg, 3);
+    model::JointCommand& c = out[iw];
     c = model::JointCommand{};
     if (contact[leg]) {
       const double v_des = tangent.dot(model_.calcWheelVelocity(leg, diag.x_des, u, data_des));
       const double f_t = tangent.dot(u.segment<3>(input_index::force(leg)));
-      c.tau_ff = settings_.wheel_kd * (v_des - v_t) + f_t * model_.wheelRadius();
+      const double slip = v_t / r - shank_spin - qd[iw];
+      c.tau_ff = settings_.wheel_kd * (v_des - v_t) + f_t * r + settings_.wheel_slip_kd * slip;
     } else {
-      c.qd_des = v_t / model_.wheelRadius();
+      c.qd_des = tangent.dot(x.segment<3>(state_index::kVel)) / r - shank_spin;
       c.kd = settings_.swing_wheel_kd;
     }
   }

@@ -29,11 +29,12 @@ struct CentroidalModelSettings {
 
 /// Wheel-centre kinematics of one leg in the base frame B, with derivatives.
 struct LegKinematics {
-  Eigen::Vector3d p_B = Eigen::Vector3d::Zero();      ///< wheel centre in B [m]
-  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();        ///< d p_B / d q_leg [m/rad]
-  std::array<Eigen::Matrix3d, kLegDofs> dJ{};         ///< dJ / dq_leg[k]
-  Eigen::Vector3d axis_B = Eigen::Vector3d::UnitY();  ///< wheel spin axis in B (unit)
-  Eigen::Matrix3d d_axis = Eigen::Matrix3d::Zero();   ///< d axis_B / d q_leg
+  Eigen::Vector3d p_B = Eigen::Vector3d::Zero();           ///< wheel centre in B [m]
+  Eigen::Matrix3d J = Eigen::Matrix3d::Zero();             ///< d p_B / d q_leg [m/rad]
+  std::array<Eigen::Matrix3d, kLegDofs> dJ{};              ///< dJ / dq_leg[k]
+  Eigen::Vector3d axis_B = Eigen::Vector3d::UnitY();       ///< wheel spin axis in B (unit)
+  Eigen::Matrix3d d_axis = Eigen::Matrix3d::Zero();        ///< d axis_B / d q_leg
+  Eigen::Matrix3d joint_axes_B = Eigen::Matrix3d::Zero();  ///< HAA, HFE, KFE axes in B (columns)
 };
 
 /// Everything the model computes once per evaluation point (x) and reuses: rotation, its

@@ -43,11 +43,14 @@ class GaitSchedule {
   Gait gaitAt(double t) const;
   /// Which wheels are on the ground at time t.
   ContactFlags contactFlags(double t) const;
-  /// Desired velocity along the ground normal of the wheel of `leg` at time t (paper Eq. 7):
-  /// the derivative of the swing bump h 64 s^3 (1 - s)^3, s = swing phase; 0 in contact [m/s].
+  /// Desired velocity along the ground normal of the wheel of `leg` at time t (paper Eq. 7)
+  /// over level ground: the derivative of the swing bump h 64 s^3 (1 - s)^3, s = swing phase;
+  /// 0 in contact [m/s].
   double swingNormalVelocity(int leg, double t) const;
   /// Height of the swing bump of `leg` at time t above its lift-off point [m]; 0 in contact.
   double swingHeight(int leg, double t) const;
+  /// True if `leg` swings at time t, with the swing's lift-off t0 and touchdown t1.
+  bool calcSwingInterval(int leg, double t, double& t0, double& t1) const;
 
   const GaitSettings& settings() const { return settings_; }
 
@@ -56,8 +59,6 @@ class GaitSchedule {
     double t_start;
     Gait gait;
   };
-  // Swing interval of `leg` containing t: true and [t0, t1] if it swings at t.
-  bool findSwing(int leg, double t, double& t0, double& t1) const;
   // Index of the entry active at t.
   std::size_t entryAt(double t) const;
 

@@ -38,12 +38,39 @@ struct ReferenceTrajectory {
   State interpolate(double t) const;
 };
 
-/// What the NMPC tracks in one cycle: gait, terrain and state reference.
+/// A raised block on the terrain plane (a step, a platform): perception's stand-in.
+struct TerrainBox {
+  double x_min = 0.0;   ///< [m]
+  double x_max = 0.0;   ///< [m]
+  double y_min = 0.0;   ///< [m]
+  double y_max = 0.0;   ///< [m]
+  double height = 0.0;  ///< top above the terrain plane [m]
+};
+
+/// Heights of one swing above the terrain plane: where the wheel lifts off and where it is
+/// expected to touch down. The swing spline blends them and adds the bump on top.
+struct SwingHeights {
+  double t_liftoff = 0.0;    ///< [s]
+  double t_touchdown = 0.0;  ///< [s]
+  double h_liftoff = 0.0;    ///< [m]
+  double h_touchdown = 0.0;  ///< [m]
+};
+
+/// Swings per leg that Targets can describe.
+inline constexpr int kMaxSwingsPerLeg = 4;
+
+/// What the NMPC tracks in one cycle: gait, terrain and state reference, and the heights of
+/// the swings (all zero over a plane).
 struct Targets {
   GaitSchedule gait;
   TerrainPlane terrain;
   ReferenceTrajectory reference;
+  std::array<std::array<SwingHeights, kMaxSwingsPerLeg>, kNumLegs> swings{};  ///< per leg
+  std::array<int, kNumLegs> num_swings{};  ///< entries of `swings` in use, per leg
 };
+
+/// Height of the terrain above its plane at (x, y): the highest box there, else 0 [m].
+double calcTerrainHeight(const std::vector<TerrainBox>& boxes, double x, double y);
 
 /// Cost weights and constraint parameters. The stage cost is
 ///   l = 1/2 |x - x_ref|^2_Q + 1/2 |u - u_ref|^2_R + sum of relaxed barriers,
@@ -64,6 +91,9 @@ struct ProblemSettings {
   BarrierSettings joint_limit_barrier = {0.1, 0.05};  ///< on the joint position margins [rad]
   BarrierSettings joint_speed_barrier = {0.1, 1.0};   ///< on the joint speed margins [rad/s]
   double joint_speed_fraction = 0.8;  ///< leg joints may use this fraction of no-load speed
+  /// Swing feedback: the normal velocity of a swinging wheel is the spline's plus this gain
+  /// times the error of its height above the terrain plane (0: velocity only, Eq. 7) [1/s].
+  double swing_position_gain = 10.0;
 
   /// Throws std::invalid_argument naming the field when a value is out of range.
   void validate() const;
@@ -83,9 +113,11 @@ struct NodeTargets {
   double t = 0.0;                                        ///< [s]
   ContactFlags contact{};                                ///< wheels on the ground
   std::array<double, kNumLegs> swing_normal_velocity{};  ///< [m/s]; 0 in contact
+  std::array<double, kNumLegs> swing_height{};  ///< spline height above the plane [m]; 0 in contact
   State x_ref = State::Zero();
   Input u_ref = Input::Zero();  ///< weight shared by the stance wheels, zero joint speeds
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  ///< ground normal in W
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();        ///< ground normal in W
+  Eigen::Vector3d terrain_point = Eigen::Vector3d::Zero();  ///< a point of the ground plane
 };
 
 /// Quadratic model of a cost: value, gradient and Gauss-Newton Hessian (exact for the
@@ -132,12 +164,17 @@ class CentroidalOcp {
   void calcTerminalCostQuadratic(const NodeTargets& node, const State& x, CostQuadratic& out) const;
 
   /// Equality constraints g(x, u) (paper Eq. 7-8), leg by leg: contact: n.v, b.v; swing:
-  /// f (3 rows), n.v - v_swing. `data` must be updated at x.
+  /// f (3 rows), n.v - v_swing - k (r + h_swing - n.(p_wheel - p_terrain)), with k the
+  /// swing_position_gain. `data` must be updated at x.
   void calcEqualities(const NodeTargets& node, const State& x, const Input& u,
                       const ModelData& data, EqVector& g) const;
   /// Same, linearised.
   void calcEqualitiesLinear(const NodeTargets& node, const State& x, const Input& u,
                             const ModelData& data, EqualityLinearization& out) const;
+
+  /// Height error of the swinging wheel of `leg`: r + h_swing - n.(p_wheel - p_terrain) [m].
+  double calcSwingHeightError(const NodeTargets& node, int leg, const State& x,
+                              const ModelData& data) const;
 
   /// Friction cone margin mu f_n - sqrt(|f_t|^2 + eps) of force f under normal n (>= 0 inside).
   double calcFrictionMargin(const Eigen::Vector3d& f, const Eigen::Vector3d& n) const;

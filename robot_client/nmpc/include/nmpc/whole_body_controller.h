@@ -3,8 +3,10 @@
 /// period (paper Sec. II-D): the legs track the planned joint positions and velocities with PD
 /// plus the inverse-dynamics torque of paper Eq. 9 (the planned contact forces, the planned
 /// base acceleration, the measured joint velocities); the wheels in contact follow the paper's
-/// law tau_w = K_d (v_des,t - v_t) + f_t r, the swinging wheels spin at the rolling speed so
-/// that they touch down without slip.
+/// law tau_w = K_d (v_des,t - v_t) + f_t r plus a slip damper that is zero while the wheel
+/// rolls without slip (it stops a planned-stance wheel that is still in the air from spinning
+/// up under the traction torque); the swinging wheels spin at the body's ground speed so that
+/// they touch down without slip.
 ///
 /// Real time: calcCommands() neither allocates nor throws nor logs.
 
@@ -19,12 +21,14 @@ namespace wj::nmpc {
 
 /// Gains of the whole-body conversion.
 struct WholeBodySettings {
-  double leg_kp = 60.0;          ///< leg joint stiffness around the planned position [Nm/rad]
-  double leg_kd = 2.0;           ///< leg joint damping around the planned velocity [Nm s/rad]
-  double wheel_kd = 40.0;        ///< K_d of the paper's wheel law, on the speed along t [Nm s/m]
-  double swing_wheel_kd = 0.3;   ///< speed gain of a swinging wheel [Nm s/rad]
-  bool inverse_dynamics = true;  ///< add the RNEA torque of paper Eq. 9 to the legs
-  bool policy_feedback = true;   ///< apply the policy's feedback gains (else feed-forward)
+  double leg_kp = 60.0;         ///< leg joint stiffness around the planned position [Nm/rad]
+  double leg_kd = 2.0;          ///< leg joint damping around the planned velocity [Nm s/rad]
+  double wheel_kd = 40.0;       ///< K_d of the paper's wheel law, on the speed along t [Nm s/m]
+  double swing_wheel_kd = 0.3;  ///< speed gain of a swinging wheel [Nm s/rad]
+  /// Slip damper of a stance wheel: torque per rad/s of spin beyond rolling [Nm s/rad].
+  double wheel_slip_kd = 0.3;
+  bool inverse_dynamics = true;        ///< add the RNEA torque of paper Eq. 9 to the legs
+  bool policy_feedback = true;         ///< apply the policy's feedback gains (else feed-forward)
   double max_feedback_force_n = 80.0;  ///< |K dx| beyond this (per wheel) is clipped [N]
 
   /// Throws std::invalid_argument naming the field when a value is out of range.

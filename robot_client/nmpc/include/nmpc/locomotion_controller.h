@@ -1,0 +1,90 @@
+#pragma once
+/// @file The locomotion controller of paper Sec. II: the NMPC (reference, gait, SQP) and the
+/// whole-body conversion, behind two calls that a control loop makes:
+///   updateMpc(t, x)                  every MPC period (>= 100 Hz), in the MPC thread
+///   calcCommands(t, x, sensors, cmd) every control period (1 kHz), in the real-time loop
+/// In a deployment updateMpc() runs in its own thread and publishes the policy through a double
+/// buffer; here both run in the caller's thread (the tests run the MPC synchronously in
+/// simulated time), and the policy the loop reads is a preallocated copy refreshed by
+/// updateMpc().
+
+#include "nmpc/gait.h"
+#include "nmpc/policy.h"
+#include "nmpc/problem.h"
+#include "nmpc/reference.h"
+#include "nmpc/sqp_solver.h"
+#include "nmpc/whole_body_controller.h"
+#include "robot_model/robot_interface.h"
+
+#include <utility>
+#include <vector>
+
+namespace wj::nmpc {
+
+/// Everything that configures the locomotion controller.
+struct LocomotionSettings {
+  CentroidalModelSettings model;  ///< centroidal model
+  ProblemSettings problem;        ///< cost and constraints
+  SqpSettings sqp;                ///< solver
+  GaitSettings gait;              ///< trot timing and swing height
+  ReferenceSettings reference;    ///< base height and reference sampling
+  WholeBodySettings whole_body;   ///< leg and wheel gains
+  /// Blind terrain (without boxes): move the terrain plane to the stance wheels' mean contact
+  /// point at every MPC cycle (the normal stays the configured one). Off: the configured plane
+  /// is used as is. With boxes the plane follows the mean box height under the wheels.
+  bool estimate_terrain_height = true;
+};
+
+/// See the file comment.
+class LocomotionController {
+ public:
+  /// Builds model, problem, solver and whole-body controller; throws std::invalid_argument on
+  /// bad settings.
+  LocomotionController(const model::RobotModel& robot, const LocomotionSettings& settings);
+
+  /// Speed command the reference follows from now on.
+  void setSpeedCommand(const SpeedCommand& command) { command_ = command; }
+  /// Runs `gait` from `t_start` on.
+  void setGait(double t_start, Gait gait) { targets_.gait.setGait(t_start, gait); }
+  /// The terrain plane (its normal is also the contact normal of the wheels).
+  void setTerrain(const TerrainPlane& terrain) { terrain_ = terrain; }
+  /// Raised blocks on the plane (perception's stand-in): the swings lift off from and land on
+  /// their tops, and the reference height follows them. Empty: the plane only.
+  void setTerrainBoxes(std::vector<TerrainBox> boxes) { boxes_ = std::move(boxes); }
+
+  /// One MPC cycle at time t and measured state x: reference, one SQP solve (warm-started),
+  /// policy published to the loop.
+  SqpStatus updateMpc(double t, const State& x);
+  /// One control period: drive commands at time t from the latest policy. No allocation.
+  void calcCommands(double t, const State& x, const model::SensorData& sensors,
+                    model::JointCommands& out);
+
+  const CentroidalModel& model() const { return solver_.problem().model(); }
+  const SqpSolver& solver() const { return solver_; }
+  /// The policy the control loop reads (refreshed by updateMpc()).
+  const Policy& policy() const { return policy_; }
+  const Targets& targets() const { return targets_; }
+  /// Diagnostics of the last calcCommands().
+  const WholeBodyOutput& lastOutput() const { return last_output_; }
+
+ private:
+  // Terrain plane and heights of the swings for this cycle.
+  void updateTerrain(double t, const State& x);
+  // Highest box under a wheel whose contact point is at p.
+  double calcFootprintHeight(const Eigen::Vector3d& p) const;
+
+  LocomotionSettings settings_;
+  TerrainPlane terrain_;
+  std::vector<TerrainBox> boxes_;
+  std::array<double, kNumLegs> last_stance_height_{};         // box height under each stance wheel
+  std::array<Eigen::Vector2d, kNumLegs> nominal_wheel_xy_{};  // in B
+  SqpSolver solver_;
+  ReferenceGenerator reference_;
+  WholeBodyController whole_body_;
+  Targets targets_;
+  SpeedCommand command_;
+  Policy policy_;
+  WholeBodyOutput last_output_;
+};
+
+}  // namespace wj::nmpc

@@ -1,0 +1,119 @@
+#include "nmpc/locomotion_controller.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "nmpc/rotation.h"
+
+namespace wj::nmpc {
+
+LocomotionController::LocomotionController(const model::RobotModel& robot,
+                                           const LocomotionSettings& settings)
+    : settings_(settings),
+      solver_(settings.sqp,
+              CentroidalOcp(CentroidalModel(robot, settings.model), settings.problem)),
+      reference_(solver_.problem().model(), settings.reference),
+      whole_body_(robot, solver_.problem().model(), settings.whole_body),
+      targets_{GaitSchedule(settings.gait, Gait::Roll), TerrainPlane{}, ReferenceTrajectory{}},
+      policy_(solver_.numIntervals()) {
+  const CentroidalModel& m = model();
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    LegKinematics k;
+    m.calcLegKinematics(leg, m.nominalJoints().segment<kLegDofs>(kLegDofs * leg), k);
+    nominal_wheel_xy_[leg] = k.p_B.head<2>();
+  }
+}
+
+double LocomotionController::calcFootprintHeight(const Eigen::Vector3d& p) const {
+  // Highest box under the wheel's extent along the heading (it rests on the highest point).
+  const Eigen::Vector3d heading(std::cos(command_.yaw_rad), std::sin(command_.yaw_rad), 0.0);
+  const double r = model().wheelRadius();
+  double h = 0.0;
+  for (int i = -2; i <= 2; ++i) {
+    const Eigen::Vector3d q = p + 0.5 * i * r * heading;
+    h = std::max(h, calcTerrainHeight(boxes_, q.x(), q.y()));
+  }
+  return h;
+}
+
+void LocomotionController::updateTerrain(double t, const State& x) {
+  const CentroidalModel& m = model();
+  ModelData data;
+  m.updateData(x, data);
+  const Eigen::Vector3d& n = terrain_.normal;
+  const ContactFlags contact = targets_.gait.contactFlags(t);
+  targets_.terrain = terrain_;
+  std::array<Eigen::Vector3d, kNumLegs> bottom;
+  for (int leg = 0; leg < kNumLegs; ++leg)
+    bottom[leg] = m.calcWheelCenter(leg, x, data) - m.wheelRadius() * n;
+  if (!boxes_.empty()) {
+    // Known terrain: the plane sits at the mean box height under the wheels.
+    double mean = 0.0;
+    for (int leg = 0; leg < kNumLegs; ++leg)
+      mean += calcTerrainHeight(boxes_, bottom[leg].x(), bottom[leg].y()) / kNumLegs;
+    targets_.terrain.point += mean * n;
+  } else if (settings_.estimate_terrain_height) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int count = 0;
+    for (int leg = 0; leg < kNumLegs; ++leg)
+      if (contact[leg]) {
+        sum += bottom[leg];
+        ++count;
+      }
+    if (count > 0) targets_.terrain.point = sum / count;
+  }
+  // Swing heights above this cycle's plane: box tops where the wheel lifts off and where it
+  // will land (under its hip at touchdown, the nominal posture); zero without boxes.
+  const double offset = n.dot(terrain_.point - targets_.terrain.point);
+  const double horizon = settings_.sqp.horizon_s;
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    targets_.num_swings[leg] = 0;
+    if (boxes_.empty()) continue;
+    if (contact[leg]) last_stance_height_[leg] = calcFootprintHeight(bottom[leg]);
+    const double dt = solver_.dt();
+    double last_t0 = -1e300;
+    for (double tk = t; tk <= t + horizon && targets_.num_swings[leg] < kMaxSwingsPerLeg;
+         tk += dt) {
+      double t0 = 0.0, t1 = 0.0;
+      if (!targets_.gait.calcSwingInterval(leg, tk, t0, t1) || t0 == last_t0) continue;
+      last_t0 = t0;
+      SwingHeights& sw = targets_.swings[leg][targets_.num_swings[leg]++];
+      sw.t_liftoff = t0;
+      sw.t_touchdown = t1;
+      if (t0 <= t) {
+        sw.h_liftoff = last_stance_height_[leg] + offset;
+      } else {
+        const Eigen::Vector3d p =
+            bottom[leg] + command_.distance(t, t0) * Eigen::Vector3d(std::cos(command_.yaw_rad),
+                                                                     std::sin(command_.yaw_rad),
+                                                                     0.0);
+        sw.h_liftoff = calcFootprintHeight(p) + offset;
+      }
+      const State x_ref = targets_.reference.interpolate(t1);
+      const Eigen::Matrix3d R = calcRotation(x_ref.segment<3>(state_index::kTheta));
+      const Eigen::Vector3d hip =
+          x_ref.segment<3>(state_index::kPos) +
+          R * (Eigen::Vector3d(nominal_wheel_xy_[leg].x(), nominal_wheel_xy_[leg].y(), 0.0) -
+               m.comOffset());
+      sw.h_touchdown = calcFootprintHeight(hip) + offset;
+    }
+  }
+}
+
+SqpStatus LocomotionController::updateMpc(double t, const State& x) {
+  updateTerrain(t, x);
+  reference_.update(t, x, command_, targets_.terrain, settings_.sqp.horizon_s, targets_.reference);
+  // The touchdown heights need the reference: plan the swings once more with it.
+  if (!boxes_.empty()) updateTerrain(t, x);
+  const SqpStatus status = solver_.solve(t, x, targets_);
+  policy_.copyFrom(solver_.policy());
+  return status;
+}
+
+void LocomotionController::calcCommands(double t, const State& x, const model::SensorData& sensors,
+                                        model::JointCommands& out) {
+  whole_body_.calcCommands(t, policy_, x, sensors, targets_.gait.contactFlags(t),
+                           targets_.terrain.normal, out, last_output_);
+}
+
+}  // namespace wj::nmpc
