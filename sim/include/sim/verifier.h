@@ -77,7 +77,7 @@ struct AcceptanceCriteria {
   /// over the take-off (t < t2), where the plan's feedforward acts. Saturation at the switch
   /// to flight and at landing impacts is reported in JointMetrics but is no failure.
   double max_envelope_ratio = 1.0;
-  double max_speed_ratio = 1.0;             ///< largest allowed |qd| / no-load speed, whole run
+  double max_speed_ratio = 1.0;  ///< largest allowed |qd| / no-load speed, take-off and flight
   double joint_limit_tolerance_rad = 0.02;  ///< allowed excursion beyond the URDF limits [rad]
   double base_height_tolerance_m = 0.06;    ///< |final height - standing height of q_landing| [m]
   double max_final_pitch_rad = 0.25;        ///< |pitch relative to the ground slope| at the end
@@ -145,7 +145,7 @@ struct VerificationReport {
   std::array<JointMetrics, model::kNumJoints> joints{};  ///< per joint, whole run
   double max_envelope_ratio = 0.0;                       ///< worst demand / limit over the take-off
   int worst_envelope_joint = -1;                         ///< jointIndex() of it
-  double max_speed_ratio = 0.0;                          ///< worst |qd| / no-load speed, whole run
+  double max_speed_ratio = 0.0;  ///< worst |qd| / no-load speed, take-off and flight
 
   bool base_contact = false;    ///< the base touched the terrain at some time
   bool leg_contact = false;     ///< a thigh, shank or knee touched the terrain
