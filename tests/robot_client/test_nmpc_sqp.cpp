@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <random>
+#include <thread>
 
 #include "nmpc/reference.h"
 #include "nmpc/sqp_solver.h"
@@ -208,6 +209,52 @@ TEST_F(SqpTest, PolicyCopyAndEvaluationDoNotAllocate) {
   EXPECT_EQ(g_malloc_calls.load() - before, 0);
 #endif
   EXPECT_THROW(Policy(3).copyFrom(solver.policy()), std::length_error);
+}
+
+TEST(PolicyExchange, HandsOverTheLatestPolicyWholeAcrossThreads) {
+  // Single thread: nothing before the first publish, then the latest only.
+  PolicyExchange exchange(4);
+  Policy a(4), out(4);
+  EXPECT_FALSE(exchange.fetch(out));
+  for (int v = 1; v <= 3; ++v) {
+    a.reset(0.1 * v, 0.01, 4);
+    exchange.publish(a);
+  }
+  ASSERT_TRUE(exchange.fetch(out));
+  EXPECT_DOUBLE_EQ(out.startTime(), 0.3);
+  EXPECT_FALSE(exchange.fetch(out));
+  // Two threads: every fetched policy is one published whole (all nodes carry its stamp).
+  std::atomic<bool> done{false};
+  std::thread producer([&] {
+    Policy p(4);
+    for (int v = 0; v < 20000; ++v) {
+      p.reset(static_cast<double>(v), 0.01, 4);
+      for (int k = 0; k <= 4; ++k) p.stateAt(k).setConstant(v);
+      for (int k = 0; k < 4; ++k) p.inputAt(k).setConstant(v);
+      exchange.publish(p);
+    }
+    done = true;
+  });
+  int fetched = 0, torn = 0;
+  double last = -1.0;
+  for (;;) {
+    const bool finished = done.load();
+    if (!exchange.fetch(out)) {
+      if (finished) break;
+      continue;
+    }
+    ++fetched;
+    const double v = out.startTime();
+    if (v < last) ++torn;  // never older than what was fetched before
+    last = v;
+    for (int k = 0; k <= 4; ++k)
+      if ((out.stateAt(k).array() != v).any()) ++torn;
+    for (int k = 0; k < 4; ++k)
+      if ((out.inputAt(k).array() != v).any()) ++torn;
+  }
+  producer.join();
+  EXPECT_GT(fetched, 0);
+  EXPECT_EQ(torn, 0);
 }
 
 TEST_F(SqpTest, IdenticalRunsGiveIdenticalSolutions) {

@@ -15,6 +15,7 @@ LocomotionController::LocomotionController(const model::RobotModel& robot,
       reference_(solver_.problem().model(), settings.reference),
       whole_body_(robot, solver_.problem().model(), settings.whole_body),
       targets_{GaitSchedule(settings.gait, Gait::Roll), TerrainPlane{}, ReferenceTrajectory{}},
+      exchange_(solver_.numIntervals()),
       policy_(solver_.numIntervals()) {
   const CentroidalModel& m = model();
   for (int leg = 0; leg < kNumLegs; ++leg) {
@@ -106,14 +107,15 @@ SqpStatus LocomotionController::updateMpc(double t, const State& x) {
   // The touchdown heights need the reference: plan the swings once more with it.
   if (!boxes_.empty()) updateTerrain(t, x);
   const SqpStatus status = solver_.solve(t, x, targets_);
-  policy_.copyFrom(solver_.policy());
+  exchange_.publish(solver_.policy());
   return status;
 }
 
 void LocomotionController::calcCommands(double t, const State& x, const model::SensorData& sensors,
                                         model::JointCommands& out) {
-  whole_body_.calcCommands(t, policy_, x, sensors, targets_.gait.contactFlags(t),
-                           targets_.terrain.normal, out, last_output_);
+  exchange_.fetch(policy_);
+  whole_body_.calcCommands(t, policy_, x, sensors, policy_.calcContact(t), policy_.normal(), out,
+                           last_output_);
 }
 
 }  // namespace wj::nmpc

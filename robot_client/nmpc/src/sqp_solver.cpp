@@ -298,8 +298,10 @@ double SqpSolver::lineSearch(double cost, double violation, double& new_cost,
 void SqpSolver::buildPolicy() {
   policy_.reset(times_[0], dt_, n_);
   for (int k = 0; k <= n_; ++k) policy_.stateAt(k) = x_[k];
+  policy_.normal() = nodes_[0].normal;
   for (int k = 0; k < n_; ++k) {
     policy_.inputAt(k) = u_[k];
+    policy_.contactAt(k) = nodes_[k].contact;
     InputStateMatrix& K = policy_.gainAt(k);
     if (settings_.feedback_policy && stats_.iterations > 0) {
       K = projection_[k].K;

@@ -3,10 +3,9 @@
 /// whole-body conversion, behind two calls that a control loop makes:
 ///   updateMpc(t, x)                  every MPC period (>= 100 Hz), in the MPC thread
 ///   calcCommands(t, x, sensors, cmd) every control period (1 kHz), in the real-time loop
-/// In a deployment updateMpc() runs in its own thread and publishes the policy through a double
-/// buffer; here both run in the caller's thread (the tests run the MPC synchronously in
-/// simulated time), and the policy the loop reads is a preallocated copy refreshed by
-/// updateMpc().
+/// updateMpc() publishes the policy through a lock-free triple buffer (PolicyExchange) and
+/// calcCommands() fetches the latest one, so the two may run in two threads (one each; the
+/// setters belong to the MPC thread) or, as in the tests, synchronously in one.
 
 #include "nmpc/gait.h"
 #include "nmpc/policy.h"
@@ -61,7 +60,7 @@ class LocomotionController {
 
   const CentroidalModel& model() const { return solver_.problem().model(); }
   const SqpSolver& solver() const { return solver_; }
-  /// The policy the control loop reads (refreshed by updateMpc()).
+  /// The policy the control loop used last (loop thread).
   const Policy& policy() const { return policy_; }
   const Targets& targets() const { return targets_; }
   /// Diagnostics of the last calcCommands().
@@ -83,6 +82,7 @@ class LocomotionController {
   WholeBodyController whole_body_;
   Targets targets_;
   SpeedCommand command_;
+  PolicyExchange exchange_;
   Policy policy_;
   WholeBodyOutput last_output_;
 };
