@@ -197,6 +197,28 @@ TEST_F(ProblemTest, NodeTargetsShareTheWeightAmongStanceWheels) {
   EXPECT_NE(trot.swing_normal_velocity[0], 0.0);
 }
 
+TEST_F(ProblemTest, SwingSplineBlendsLiftoffAndTouchdownHeights) {
+  // LF swings over [0, 0.25) with trot period 0.5: lift off at 0, land on a 0.1 m block.
+  Targets targets = targets_;
+  targets.swings[0][0] = SwingHeights{0.0, 0.25, 0.0, 0.1};
+  targets.num_swings[0] = 1;
+  const double H = targets.gait.settings().swing_height_m, h = 1e-6;
+  for (double t = 0.005; t < 0.25; t += 0.01) {
+    const NodeTargets node = ocp_.calcNodeTargets(targets, t);
+    const double num = (ocp_.calcNodeTargets(targets, t + h).swing_height[0] -
+                        ocp_.calcNodeTargets(targets, t - h).swing_height[0]) /
+                       (2 * h);
+    EXPECT_NEAR(node.swing_normal_velocity[0], num, 1e-6) << t;
+  }
+  EXPECT_NEAR(ocp_.calcNodeTargets(targets, 1e-9).swing_height[0], 0.0, 1e-9);
+  EXPECT_NEAR(ocp_.calcNodeTargets(targets, 0.25 - 1e-9).swing_height[0], 0.1, 1e-6);
+  EXPECT_NEAR(ocp_.calcNodeTargets(targets, 0.125).swing_height[0], 0.05 + H, 1e-9);
+  // Without an entry the swing is over level ground: the bump alone.
+  EXPECT_NEAR(ocp_.calcNodeTargets(targets_, 0.125).swing_height[0], H, 1e-9);
+  EXPECT_NEAR(calcTerrainHeight({TerrainBox{1.0, 2.0, -1.0, 1.0, 0.1}}, 1.5, 0.0), 0.1, 1e-12);
+  EXPECT_EQ(calcTerrainHeight({TerrainBox{1.0, 2.0, -1.0, 1.0, 0.1}}, 0.5, 0.0), 0.0);
+}
+
 TEST(TerrainPlane, SlopeRisesAlongX) {
   const TerrainPlane p = TerrainPlane::slope(0.3);
   EXPECT_NEAR(p.heightAt(1.0, 5.0), std::tan(0.3), 1e-12);

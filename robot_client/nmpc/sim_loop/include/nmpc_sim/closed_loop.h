@@ -31,6 +31,7 @@ struct LoopResult {
   double fell_at = -1.0;
   std::vector<LoopSample> samples;
   std::vector<double> mpc_wall_ms;  ///< wall time of every updateMpc()
+  std::vector<SqpStats> mpc_stats;  ///< solver statistics of every updateMpc()
   double wall_s = 0.0;              ///< whole run
   int mpc_calls = 0;
 };
@@ -61,6 +62,8 @@ LoopResult runClosedLoop(const model::RobotModel& robot, LocomotionController& c
   const int mpc_every =
       std::max(1, static_cast<int>(std::lround(mpc_period_s / robot_sim.controlPeriod())));
   result.samples.reserve(static_cast<std::size_t>(steps));
+  result.mpc_wall_ms.reserve(static_cast<std::size_t>(steps / mpc_every + 1));
+  result.mpc_stats.reserve(static_cast<std::size_t>(steps / mpc_every + 1));
   sim::GroundTruth gt;
   model::SensorData sensors;
   model::JointCommands commands{};
@@ -79,6 +82,7 @@ LoopResult runClosedLoop(const model::RobotModel& robot, LocomotionController& c
       controller.updateMpc(t, x);
       result.mpc_wall_ms.push_back(
           std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      result.mpc_stats.push_back(controller.solver().stats());
       // First cycle: a few more iterations at the same instant (cold start).
       if (k == 0)
         for (int i = 0; i < 4; ++i) controller.updateMpc(t, x);
