@@ -195,6 +195,7 @@ void CentroidalOcp::calcStageCostQuadratic(const NodeTargets& node, const State&
   out.du = r_diag_.cwiseProduct(du);
   out.dxx = q_diag_.asDiagonal();
   out.duu = r_diag_.asDiagonal();
+  out.duu_block_diagonal = true;
   // Friction cones: h = mu n.f - sqrt(|P f|^2 + eps), P = I - n n^T.
   const Eigen::Vector3d& n = node.normal;
   const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - n * n.transpose();

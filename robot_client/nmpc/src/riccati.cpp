@@ -35,14 +35,24 @@ void projectLqStage(const StateMatrix& A, const StateInputMatrix& B, const State
   out.B.noalias() = B * pr.P;
   out.b = b;
   out.b.noalias() += B * pr.u0;
-  const InputStateMatrix RK = cost.duu * pr.K;
+  InputStateMatrix RK;
+  ProjectionMatrix RP(kInputDim, pr.P.cols());
+  if (cost.duu_block_diagonal) {
+    for (int i = 0; i < kInputDim; i += 3) {
+      const Eigen::Matrix3d Rb = cost.duu.block<3, 3>(i, i);
+      RK.middleRows<3>(i).noalias() = Rb * pr.K.middleRows<3>(i);
+      RP.middleRows<3>(i).noalias() = Rb * pr.P.middleRows<3>(i);
+    }
+  } else {
+    RK.noalias() = cost.duu * pr.K;
+    RP.noalias() = cost.duu * pr.P;
+  }
   Input r = cost.du;
   r.noalias() += cost.duu * pr.u0;
   out.Q = cost.dxx;
   out.Q.noalias() += pr.K.transpose() * RK;
   out.q = cost.dx;
   out.q.noalias() += pr.K.transpose() * r;
-  const ProjectionMatrix RP = cost.duu * pr.P;
   out.R.noalias() = pr.P.transpose() * RP;
   out.S.noalias() = pr.P.transpose() * RK;
   out.r.noalias() = pr.P.transpose() * r;

@@ -129,6 +129,9 @@ struct CostQuadratic {
   Input du = Input::Zero();
   StateMatrix dxx = StateMatrix::Zero();
   InputMatrix duu = InputMatrix::Zero();
+  /// duu is block diagonal in 3 x 3 blocks (true for the stage cost here: per-wheel friction
+  /// cones, diagonal elsewhere); lets the projection skip the zero blocks.
+  bool duu_block_diagonal = false;
 };
 
 /// Linearised equality constraints g + C dx + D du = 0.
