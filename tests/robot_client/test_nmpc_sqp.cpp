@@ -9,6 +9,7 @@
 #include <random>
 #include <thread>
 
+#include "nmpc/locomotion_controller.h"
 #include "nmpc/reference.h"
 #include "nmpc/sqp_solver.h"
 #include "nmpc_test_util.h"
@@ -209,6 +210,35 @@ TEST_F(SqpTest, PolicyCopyAndEvaluationDoNotAllocate) {
   EXPECT_EQ(g_malloc_calls.load() - before, 0);
 #endif
   EXPECT_THROW(Policy(3).copyFrom(solver.policy()), std::length_error);
+}
+
+TEST_F(SqpTest, ControlPeriodOfTheLocomotionControllerDoesNotAllocate) {
+  LocomotionController c(test::loadRobot(), LocomotionSettings{});
+  c.setGait(0.0, Gait::Trot);
+  c.updateMpc(0.0, standing_);
+  model::SensorData sensors;
+  for (int leg = 0; leg < kNumLegs; ++leg)
+    for (int j = 0; j < kLegDofs; ++j)
+      sensors.joints[robotJointIndex(leg, j)].q = model_.nominalJoints()[kLegDofs * leg + j];
+  model::JointCommands commands{};
+#ifdef WJ_COUNT_MALLOC
+  const std::int64_t before = g_malloc_calls.load();
+#endif
+  for (int k = 0; k < 100; ++k) c.calcCommands(0.001 * k, standing_, sensors, commands);
+#ifdef WJ_COUNT_MALLOC
+  EXPECT_EQ(g_malloc_calls.load() - before, 0);
+#endif
+  // A new policy is picked up without allocating either.
+  c.updateMpc(0.01, standing_);
+#ifdef WJ_COUNT_MALLOC
+  const std::int64_t after_mpc = g_malloc_calls.load();
+#endif
+  c.calcCommands(0.011, standing_, sensors, commands);
+#ifdef WJ_COUNT_MALLOC
+  EXPECT_EQ(g_malloc_calls.load() - after_mpc, 0);
+#endif
+  EXPECT_DOUBLE_EQ(c.policy().startTime(), 0.01);
+  for (const model::JointCommand& cmd : commands) EXPECT_TRUE(std::isfinite(cmd.tau_ff));
 }
 
 TEST(PolicyExchange, HandsOverTheLatestPolicyWholeAcrossThreads) {
