@@ -130,11 +130,11 @@ int main(int argc, char** argv) {
     std::vector<double> warm_ms, cold_ms;
     int feasible = 0;
     for (int s = 1; s <= runs; ++s) {
-      const Scenario base = makePreset(planner, "forward", 3.0);
+      const Scenario base = makePreset(planner, "forward_hw", 3.0);
       PlanOptions o;
       o.seed = static_cast<std::uint64_t>(s);
       const PlannerResult r0 = planner.plan(base.task, base.initial, o);
-      const Scenario next = makePreset(planner, "forward", 3.05);
+      const Scenario next = makePreset(planner, "forward_hw", 3.05);
       o.warm_start = r0.u;
       o.seed = static_cast<std::uint64_t>(100 + s);
       const PlannerResult r1 = planner.plan(next.task, next.initial, o);
@@ -142,20 +142,20 @@ int main(int argc, char** argv) {
       cold_ms.push_back(r0.total_ms);
       feasible += r1.evaluation.feasible;
     }
-    out["warm_start"] = {{"task", "forward 3.00 -> 3.05 m/s"},
+    out["warm_start"] = {{"task", "forward_hw 3.00 -> 3.05 m/s"},
                          {"median_ms", median(warm_ms)},
                          {"cold_median_ms", median(cold_ms)},
                          {"feasible", feasible},
                          {"runs", runs}};
   }
 
-  // 3. Feasibility over a grid of run-up speeds, forward preset (wall at 1.2 m).
+  // 3. Feasibility over a grid of run-up speeds, forward_hw preset (0.12 m obstacle at 1.2 m).
   {
     json grid = json::array();
     int counted_runs = 0, counted_feasible = 0;
     for (int k = 0; k <= 12; ++k) {
       const double v0 = 0.25 * k;
-      const Scenario sc = makePreset(planner, "forward", v0);
+      const Scenario sc = makePreset(planner, "forward_hw", v0);
       int feasible = 0;
       for (int s = 1; s <= grid_seeds; ++s) {
         PlanOptions o;
@@ -168,7 +168,7 @@ int main(int argc, char** argv) {
         counted_feasible += feasible;
       }
     }
-    out["grid"] = {{"task", "forward"},
+    out["grid"] = {{"task", "forward_hw"},
                    {"points", grid},
                    {"rate_where_any_seed_feasible",
                     counted_runs ? static_cast<double>(counted_feasible) / counted_runs : 0.0}};

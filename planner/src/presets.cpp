@@ -6,7 +6,7 @@
 namespace wj::planner {
 
 std::vector<std::string> presetNames() {
-  return {"forward", "vertical", "backflip"};
+  return {"forward", "forward_hw", "vertical", "backflip"};
 }
 
 double comHeightForBaseHeight(const model::RobotModel& robot, const Eigen::VectorXd& q,
