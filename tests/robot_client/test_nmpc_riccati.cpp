@@ -81,6 +81,14 @@ TEST(Riccati, MatchesADenseKktSolveOfTheConstrainedLqProblem) {
   cost[N].dxx = Mq * Mq.transpose() / nx + StateMatrix::Identity();
   cost[N].dx = randomMatrix(nx, 1, rng);
 
+  // Every other stage with a 3 x 3 block-diagonal input Hessian (the projection's fast path).
+  for (int k = 1; k < N; k += 2) {
+    InputMatrix R = InputMatrix::Zero();
+    for (int i = 0; i < nu; i += 3) R.block<3, 3>(i, i) = cost[k].duu.block<3, 3>(i, i);
+    cost[k].duu = R;
+    cost[k].duu_block_diagonal = true;
+  }
+
   // (a) projection + Riccati.
   std::vector<InputProjection> proj(N);
   std::vector<LqStage> lq(N);

@@ -312,12 +312,4 @@ void SqpSolver::buildPolicy() {
   }
 }
 
-void SqpSolver::setIterate(const std::vector<State>& x, const std::vector<Input>& u) {
-  if (static_cast<int>(x.size()) != n_ + 1 || static_cast<int>(u.size()) != n_)
-    throw std::invalid_argument("SqpSolver::setIterate: wrong trajectory lengths");
-  x_ = x;
-  u_ = u;
-  initialized_ = true;
-}
-
 }  // namespace wj::nmpc

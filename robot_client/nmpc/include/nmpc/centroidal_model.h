@@ -62,7 +62,9 @@ class CentroidalModel {
   /// or when the nominal posture is out of the legs' reach.
   CentroidalModel(const model::RobotModel& robot, const CentroidalModelSettings& settings = {});
 
+  /// The settings the model was built with.
   const CentroidalModelSettings& settings() const { return settings_; }
+  /// Total mass of the robot [kg].
   double mass() const { return mass_; }
   /// Composite rotational inertia about the CoM, in B, at the nominal posture [kg m^2].
   const Eigen::Matrix3d& inertia() const { return inertia_; }
@@ -70,11 +72,13 @@ class CentroidalModel {
   const Eigen::Vector3d& comOffset() const { return c_B_; }
   /// Gravity vector in W [m/s^2].
   Eigen::Vector3d gravity() const { return {0.0, 0.0, -settings_.gravity_m_s2}; }
+  /// Wheel radius from the URDF [m].
   double wheelRadius() const { return wheel_radius_; }
   /// Leg joint positions of the nominal posture [rad].
   const LegJointVector& nominalJoints() const { return q_nominal_; }
-  /// Lower and upper position limits of the 12 leg joints [rad].
+  /// Lower position limits of the 12 leg joints [rad].
   const LegJointVector& jointLower() const { return q_lower_; }
+  /// Upper position limits of the 12 leg joints [rad].
   const LegJointVector& jointUpper() const { return q_upper_; }
   /// No-load speed of the 12 leg joints [rad/s].
   const LegJointVector& jointSpeedLimit() const { return qd_max_; }

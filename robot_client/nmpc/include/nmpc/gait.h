@@ -52,6 +52,7 @@ class GaitSchedule {
   /// True if `leg` swings at time t, with the swing's lift-off t0 and touchdown t1.
   bool calcSwingInterval(int leg, double t, double& t0, double& t1) const;
 
+  /// Timing and shape of the gaits.
   const GaitSettings& settings() const { return settings_; }
 
  private:

@@ -58,10 +58,13 @@ class LocomotionController {
   void calcCommands(double t, const State& x, const model::SensorData& sensors,
                     model::JointCommands& out);
 
+  /// The centroidal model (immutable; safe from both threads).
   const CentroidalModel& model() const { return solver_.problem().model(); }
+  /// The solver, with its last iterate and statistics (MPC thread).
   const SqpSolver& solver() const { return solver_; }
   /// The policy the control loop used last (loop thread).
   const Policy& policy() const { return policy_; }
+  /// Gait, terrain, reference and swings of the last MPC cycle (MPC thread).
   const Targets& targets() const { return targets_; }
   /// Diagnostics of the last calcCommands().
   const WholeBodyOutput& lastOutput() const { return last_output_; }

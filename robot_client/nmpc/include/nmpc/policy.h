@@ -28,9 +28,13 @@ class Policy {
   int capacity() const { return static_cast<int>(u_ff_.size()); }
   /// Intervals in use (0: empty).
   int numIntervals() const { return n_; }
+  /// True before the first reset().
   bool empty() const { return n_ == 0; }
+  /// Time of node 0 [s].
   double startTime() const { return t0_; }
+  /// Time of the last node [s].
   double endTime() const { return t0_ + n_ * dt_; }
+  /// Interval length [s].
   double dt() const { return dt_; }
 
   /// Starts filling a policy of `num_intervals` intervals of `dt` from `t0`. Throws
@@ -43,6 +47,7 @@ class Policy {
   const State& stateAt(int node) const { return x_ref_[node]; }
   const Input& inputAt(int node) const { return u_ff_[node]; }
   const InputStateMatrix& gainAt(int node) const { return K_[node]; }
+  /// Planned contact over interval `node`.
   ContactFlags& contactAt(int node) { return contact_[node]; }
   const ContactFlags& contactAt(int node) const { return contact_[node]; }
   /// Ground normal in W the plan assumes.

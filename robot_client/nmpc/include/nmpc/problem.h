@@ -148,7 +148,9 @@ class CentroidalOcp {
   /// Throws std::invalid_argument when the settings are out of range.
   CentroidalOcp(CentroidalModel model, const ProblemSettings& settings);
 
+  /// The centroidal model.
   const CentroidalModel& model() const { return model_; }
+  /// Cost weights and constraint parameters.
   const ProblemSettings& settings() const { return settings_; }
 
   /// Gait, reference and terrain of `targets` at time t.

@@ -50,6 +50,7 @@ class ReferenceGenerator {
   /// steepest line under the heading, z along the normal (roll, pitch, yaw).
   static Eigen::Vector3d calcTerrainAlignedEuler(const TerrainPlane& terrain, double yaw_rad);
 
+  /// Height and sampling of the reference.
   const ReferenceSettings& settings() const { return settings_; }
 
  private:

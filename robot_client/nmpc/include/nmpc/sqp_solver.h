@@ -98,8 +98,11 @@ class SqpSolver {
 
   /// Policy of the last solve().
   const Policy& policy() const { return policy_; }
+  /// Outcome of the last solve().
   const SqpStats& stats() const { return stats_; }
+  /// Solver settings.
   const SqpSettings& settings() const { return settings_; }
+  /// The optimal control problem.
   const CentroidalOcp& problem() const { return problem_; }
 
   /// Number of shooting intervals N (nodes 0..N).
@@ -112,9 +115,6 @@ class SqpSolver {
   const std::vector<Input>& inputs() const { return u_; }
   /// Node targets of the last solve() (N + 1).
   const std::vector<NodeTargets>& nodeTargets() const { return nodes_; }
-
-  /// Replaces the iterate (for tests and the Ipopt comparison): x (N + 1), u (N).
-  void setIterate(const std::vector<State>& x, const std::vector<Input>& u);
 
   /// Cost and constraint violation of a trajectory under the node targets of the last solve.
   void evaluateTrajectory(const std::vector<State>& x, const std::vector<Input>& u, double& cost,

@@ -57,6 +57,7 @@ class WholeBodyController {
                     const Eigen::Vector3d& normal, model::JointCommands& out,
                     WholeBodyOutput& diagnostics) const;
 
+  /// Gains.
   const WholeBodySettings& settings() const { return settings_; }
 
  private:
