@@ -40,7 +40,9 @@ class JumpProblem final : public de::Problem {
   const JumpModel& model_;
 };
 
-std::vector<ConstraintClass> bindingClasses(const Evaluation& ev) {
+}  // namespace
+
+std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev) {
   std::vector<std::pair<int, ConstraintClass>> v;
   for (int i = 0; i < kNumConstraintClasses; ++i) {
     const auto c = static_cast<ConstraintClass>(i);
@@ -60,7 +62,7 @@ std::vector<ConstraintClass> bindingClasses(const Evaluation& ev) {
   return out;
 }
 
-std::string summarize(const Evaluation& ev, const std::vector<ConstraintClass>& binding) {
+std::string summarizeEvaluation(const Evaluation& ev, const std::vector<ConstraintClass>& binding) {
   std::ostringstream ss;
   if (ev.feasible) {
     ss << "feasible: all constraints hold and the target is met";
@@ -81,8 +83,6 @@ std::string summarize(const Evaluation& ev, const std::vector<ConstraintClass>& 
   }
   return ss.str();
 }
-
-}  // namespace
 
 const char* toString(PolishOutcome o) {
   switch (o) {
@@ -227,8 +227,8 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     if (c.evaluation.valid) r.candidates.push_back(std::move(c));
   }
 
-  r.binding = bindingClasses(r.evaluation);
-  r.summary = summarize(r.evaluation, r.binding);
+  r.binding = findBindingClasses(r.evaluation);
+  r.summary = summarizeEvaluation(r.evaluation, r.binding);
   if (r.evaluation.valid) r.plan = model.buildPlan(r.u);
   r.total_ms = msSince(t_start);
   return r;

@@ -85,6 +85,13 @@ class JumpPlanner {
   PlannerSettings settings_;
 };
 
+/// The binding constraint classes of an evaluation: the violated ones, highest priority first;
+/// when the constraints hold but the target is missed, the nearly active ones (margin under 5 %
+/// of the class scale), which are what stop the target; empty when feasible.
+std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev);
+/// One sentence on an evaluation and its binding classes (PlannerResult::summary).
+std::string summarizeEvaluation(const Evaluation& ev, const std::vector<ConstraintClass>& binding);
+
 /// Ipopt polish of candidate u0 on `model`: minimises the take-off energy subject to every
 /// sampled constraint (>= 0) and the target errors (= 0). Returns the polished point in `u`.
 PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,

@@ -76,8 +76,8 @@ struct PlanAnswer {
 
 /// The binding constraint classes of an evaluation (violated ones by priority, or, when the
 /// constraints hold but the target is missed, the nearly active ones) and a one-sentence
-/// summary: the rule of JumpPlanner::plan, applied to a re-evaluated cached solution.
-/// tests/server checks that it agrees with the planner's own result.
+/// summary of a re-evaluated cached solution, by the planner's own rule
+/// (planner::findBindingClasses, planner::summarizeEvaluation).
 void describeEvaluation(const planner::Evaluation& ev,
                         std::vector<planner::ConstraintClass>& binding, std::string& summary);
 
