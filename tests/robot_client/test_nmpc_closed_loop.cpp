@@ -1,12 +1,14 @@
 // The locomotion controller in closed loop with the Simbody robot (paper Sec. IV-A): stand,
 // accelerate by rolling to 3 m/s and hold it, roll down a 20 degree slope, trot over a 0.1 m
-// step. MPC at 100 Hz of simulated time (synchronous), joint control at 1 kHz, state from the
-// simulator's ground truth.
+// step at three speeds. MPC at 100 Hz of simulated time (synchronous), joint control at 1 kHz,
+// state from the simulator's ground truth.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <numbers>
+#include <string>
 
 #include "nmpc_sim/closed_loop.h"
 #include "nmpc_test_util.h"
@@ -112,12 +114,14 @@ TEST_F(ClosedLoop, RollsDownATwentyDegreeSlope) {
   EXPECT_LT(pitch_err, 0.1);
 }
 
-TEST_F(ClosedLoop, TrotsOverATenCentimetreStep) {
-  const double step_x = 0.7, step_h = 0.1;
+class TrotOverStep : public ClosedLoop, public ::testing::WithParamInterface<double> {};
+
+TEST_P(TrotOverStep, ReachesTheTopWithoutFalling) {
+  const double step_x = 0.7, step_h = 0.1, speed = GetParam();
   LocomotionController c(robot_, settings_);
   SpeedCommand command;
   command.t_start_s = 0.5;
-  command.v_target_m_s = 0.5;
+  command.v_target_m_s = speed;
   command.acceleration_m_s2 = 1.0;
   c.setSpeedCommand(command);
   c.setGait(0.5, Gait::Trot);
@@ -129,7 +133,7 @@ TEST_F(ClosedLoop, TrotsOverATenCentimetreStep) {
   const double T = 5.0;
   const LoopResult r = sim_loop::runClosedLoop(robot_, c, sim, T, kMpcPeriod, 0.0,
                                                [](double, LocomotionController&) {});
-  report("step", r);
+  report(("step " + std::to_string(speed)).c_str(), r);
   ASSERT_FALSE(r.fell) << "at " << r.fell_at;
   const LoopSample& last = r.samples.back();
   const double mean_speed = meanOver(r, T - 1.0, T, [](const LoopSample& s) { return s.speed; });
@@ -145,6 +149,15 @@ TEST_F(ClosedLoop, TrotsOverATenCentimetreStep) {
   EXPECT_GT(last.x, step_x + 0.4);
   EXPECT_LT(height_err, 0.03);
 }
+
+// Different speeds meet the edge at different phases of the trot.
+INSTANTIATE_TEST_SUITE_P(Speeds, TrotOverStep, ::testing::Values(0.4, 0.5, 0.8),
+                         [](const ::testing::TestParamInfo<double>& param_info) {
+                           return "at_" +
+                                  std::to_string(
+                                      static_cast<int>(std::lround(10 * param_info.param))) +
+                                  "_dm_per_s";
+                         });
 
 }  // namespace
 }  // namespace wj::nmpc

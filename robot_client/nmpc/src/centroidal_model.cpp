@@ -53,23 +53,35 @@ CentroidalModel::CentroidalModel(const model::RobotModel& robot,
   inertia_inv_ = inertia_.inverse();
 }
 
+bool CentroidalModel::calcLegJoints(int leg, double base_height_m, double x_offset_m,
+                                    Eigen::Vector3d& q) const {
+  const model::LegGeometry& g = geometry_[leg];
+  const double l1 = g.thigh_length, l2 = g.shank_length;
+  // Wheel centre relative to the HFE axis in the sagittal plane; with HFE angle q1 and KFE
+  // angle q2 it is -(l1 sin q1 + l2 sin(q1 + q2), l1 cos q1 + l2 cos(q1 + q2)).
+  const double px = x_offset_m;
+  const double pz = -(base_height_m - wheel_radius_) - (g.p_BH.z() + g.p_HT.z());
+  const double c2 = (px * px + pz * pz - l1 * l1 - l2 * l2) / (2.0 * l1 * l2);
+  if (c2 < -1.0 || c2 > 1.0) return false;
+  const double q2 = -std::acos(c2);  // knee backward
+  const double q1 = std::atan2(-px, -pz) - std::atan2(l2 * std::sin(q2), l1 + l2 * std::cos(q2));
+  const Eigen::Vector3d candidate(0.0, q1, q2);
+  for (int j = 0; j < kLegDofs; ++j) {
+    const int i = kLegDofs * leg + j;
+    if (candidate[j] < q_lower_[i] || candidate[j] > q_upper_[i]) return false;
+  }
+  q = candidate;
+  return true;
+}
+
 LegJointVector CentroidalModel::calcStandingJoints(double base_height_m, double x_offset_m) const {
   LegJointVector q = LegJointVector::Zero();
   for (int leg = 0; leg < kNumLegs; ++leg) {
-    const model::LegGeometry& g = geometry_[leg];
-    const double l1 = g.thigh_length, l2 = g.shank_length;
-    // Wheel centre relative to the HFE axis in the sagittal plane; with HFE angle q1 and KFE
-    // angle q2 it is -(l1 sin q1 + l2 sin(q1 + q2), l1 cos q1 + l2 cos(q1 + q2)).
-    const double px = x_offset_m;
-    const double pz = -(base_height_m - wheel_radius_) - (g.p_BH.z() + g.p_HT.z());
-    const double c2 = (px * px + pz * pz - l1 * l1 - l2 * l2) / (2.0 * l1 * l2);
-    if (c2 < -1.0 || c2 > 1.0)
+    Eigen::Vector3d ql;
+    if (!calcLegJoints(leg, base_height_m, x_offset_m, ql))
       throw std::invalid_argument("calcStandingJoints: base height " +
                                   std::to_string(base_height_m) + " m is out of reach");
-    const double q2 = -std::acos(c2);  // knee backward
-    const double q1 = std::atan2(-px, -pz) - std::atan2(l2 * std::sin(q2), l1 + l2 * std::cos(q2));
-    q[kLegDofs * leg + 1] = q1;
-    q[kLegDofs * leg + 2] = q2;
+    q.segment<kLegDofs>(kLegDofs * leg) = ql;
   }
   return q;
 }

@@ -37,6 +37,25 @@ double LocomotionController::calcFootprintHeight(const Eigen::Vector3d& p) const
   return h;
 }
 
+double LocomotionController::calcFootholdShift(const Eigen::Vector3d& p,
+                                               double stance_travel) const {
+  // Boxes are steps across the heading (edges at x_min along +x, the direction of travel).
+  const double r = model().wheelRadius();
+  const double margin = settings_.foothold_edge_margin_m;
+  const double max_shift = settings_.max_foothold_offset_m;
+  for (const TerrainBox& b : boxes_) {
+    if (p.y() < b.y_min || p.y() > b.y_max) continue;
+    // Wheel centres to avoid: on the edge, or short of it by less than a stance's roll.
+    const double lo = b.x_min - r - stance_travel - margin, hi = b.x_min + margin;
+    if (p.x() <= lo || p.x() >= hi) continue;
+    const double forward = hi - p.x(), backward = lo - p.x();
+    if (forward <= max_shift && forward <= -backward) return forward;
+    if (-backward <= max_shift) return backward;
+    return max_shift;  // neither fits: land as far onto the box as the leg allows
+  }
+  return 0.0;
+}
+
 void LocomotionController::updateTerrain(double t, const State& x) {
   const CentroidalModel& m = model();
   ModelData data;
@@ -67,10 +86,15 @@ void LocomotionController::updateTerrain(double t, const State& x) {
   // will land (under its hip at touchdown, the nominal posture); zero without boxes.
   const double offset = n.dot(terrain_.point - targets_.terrain.point);
   const double horizon = settings_.sqp.horizon_s;
+  const Eigen::Vector3d heading(std::cos(command_.yaw_rad), std::sin(command_.yaw_rad), 0.0);
   for (int leg = 0; leg < kNumLegs; ++leg) {
     targets_.num_swings[leg] = 0;
     if (boxes_.empty()) continue;
     if (contact[leg]) last_stance_height_[leg] = calcFootprintHeight(bottom[leg]);
+    // A foothold of the last swing stays in the joint reference until the next lift-off.
+    const SwingHeights& held = held_swing_[leg];
+    if (held.has_foothold && t >= held.t_touchdown && t < held.t_release)
+      targets_.swings[leg][targets_.num_swings[leg]++] = held;
     const double dt = solver_.dt();
     double last_t0 = -1e300;
     for (double tk = t; tk <= t + horizon && targets_.num_swings[leg] < kMaxSwingsPerLeg;
@@ -81,13 +105,11 @@ void LocomotionController::updateTerrain(double t, const State& x) {
       SwingHeights& sw = targets_.swings[leg][targets_.num_swings[leg]++];
       sw.t_liftoff = t0;
       sw.t_touchdown = t1;
+      sw.has_foothold = false;
       if (t0 <= t) {
         sw.h_liftoff = last_stance_height_[leg] + offset;
       } else {
-        const Eigen::Vector3d p =
-            bottom[leg] + command_.distance(t, t0) * Eigen::Vector3d(std::cos(command_.yaw_rad),
-                                                                     std::sin(command_.yaw_rad),
-                                                                     0.0);
+        const Eigen::Vector3d p = bottom[leg] + command_.distance(t, t0) * heading;
         sw.h_liftoff = calcFootprintHeight(p) + offset;
       }
       const State x_ref = targets_.reference.interpolate(t1);
@@ -96,7 +118,28 @@ void LocomotionController::updateTerrain(double t, const State& x) {
           x_ref.segment<3>(state_index::kPos) +
           R * (Eigen::Vector3d(nominal_wheel_xy_[leg].x(), nominal_wheel_xy_[leg].y(), 0.0) -
                m.comOffset());
-      sw.h_touchdown = calcFootprintHeight(hip) + offset;
+      // The next lift-off ends the stance that follows this touchdown.
+      double next0 = t1, next1 = t1;
+      sw.t_release = t1 + 2.0 * (t1 - t0);
+      for (double tn = t1; tn < t1 + 4.0 * (t1 - t0); tn += dt)
+        if (targets_.gait.calcSwingInterval(leg, tn, next0, next1)) {
+          sw.t_release = next0;
+          break;
+        }
+      const double shift = settings_.adapt_footholds
+                               ? calcFootholdShift(hip, command_.distance(t1, sw.t_release))
+                               : 0.0;
+      const Eigen::Vector3d landing = hip + shift * heading;
+      sw.h_touchdown = calcFootprintHeight(landing) + offset;
+      if (shift != 0.0) {
+        // Joints that put the wheel `shift` ahead of the HFE axis (where the nominal posture
+        // has it) with the base at its reference height above the landing surface.
+        const Eigen::Vector3d base = x_ref.segment<3>(state_index::kPos) - R * m.comOffset();
+        const double surface =
+            terrain_.heightAt(landing.x(), landing.y()) + calcFootprintHeight(landing);
+        sw.has_foothold = m.calcLegJoints(leg, base.z() - surface, shift, sw.q_foothold);
+      }
+      if (t0 <= t && t < t1) held_swing_[leg] = sw;
     }
   }
 }

@@ -129,6 +129,16 @@ NodeTargets CentroidalOcp::calcNodeTargets(const Targets& targets, double t) con
   node.normal = targets.terrain.normal;
   node.terrain_point = targets.terrain.point;
   node.x_ref = targets.reference.interpolate(t);
+  // Footholds off the hip: the swinging leg's joint reference blends to the foothold posture.
+  for (int leg = 0; leg < kNumLegs; ++leg)
+    for (int i = 0; i < targets.num_swings[leg]; ++i) {
+      const SwingHeights& sw = targets.swings[leg][i];
+      if (!sw.has_foothold || t < sw.t_liftoff || t >= sw.t_release) continue;
+      const double s = std::clamp((t - sw.t_liftoff) / (sw.t_touchdown - sw.t_liftoff), 0.0, 1.0);
+      const double sigma = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);
+      auto q = node.x_ref.segment<kLegDofs>(state_index::joints(leg));
+      q = (1.0 - sigma) * q + sigma * sw.q_foothold;
+    }
   int stance = 0;
   for (int leg = 0; leg < kNumLegs; ++leg) {
     calcSwingTarget(targets, leg, t, node.swing_height[leg], node.swing_normal_velocity[leg]);

@@ -85,6 +85,7 @@ SqpSolver::SqpSolver(const SqpSettings& settings, CentroidalOcp problem)
   lq_.resize(N);
   gains_.resize(N);
   dz_.resize(N);
+  prev_contact_.resize(N);
   policy_ = Policy(n_);
   filter_.reserve(static_cast<std::size_t>(settings_.max_iterations) + 1);
 }
@@ -108,7 +109,16 @@ void SqpSolver::shift(double t0) {
       const double a = s - i;
       x_[k] = (1.0 - a) * x_trial_[i] + a * x_trial_[i + 1];
     }
-    if (k < n_) u_[k] = u_trial_[std::min(i, n_ - 1)];
+    if (k < n_) {
+      const int j = std::min(i, n_ - 1);
+      u_[k] = u_trial_[j];
+      // A wheel whose contact changed at this node (the grid moves across the gait's switch
+      // times) starts from the new mode's reference force, not from the other mode's.
+      for (int leg = 0; leg < kNumLegs; ++leg)
+        if (prev_contact_[j][leg] != nodes_[k].contact[leg])
+          u_[k].segment<3>(input_index::force(leg)) =
+              nodes_[k].u_ref.segment<3>(input_index::force(leg));
+    }
   }
 }
 
@@ -152,6 +162,7 @@ SqpStatus SqpSolver::solve(double t0, const State& x0, const Targets& targets) {
       break;
     }
   }
+  for (int k = 0; k < n_; ++k) prev_contact_[k] = nodes_[k].contact;
   stats_.status = status;
   stats_.cost = cost;
   stats_.violation = violation;

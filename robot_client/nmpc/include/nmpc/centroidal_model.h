@@ -87,6 +87,10 @@ class CentroidalModel {
   /// `base_height_m` above level ground (knees back; planar two-link inverse kinematics).
   /// Throws std::invalid_argument when out of reach.
   LegJointVector calcStandingJoints(double base_height_m, double x_offset_m = 0.0) const;
+  /// Joints (HAA = 0, HFE, KFE) of `leg` that put its wheel centre `x_offset_m` ahead of the
+  /// HFE axis with the base `base_height_m` above level ground; false when out of reach or out
+  /// of the joint ranges (q untouched).
+  bool calcLegJoints(int leg, double base_height_m, double x_offset_m, Eigen::Vector3d& q) const;
 
   /// Wheel-centre kinematics of `leg` at leg joint positions q_leg (HAA, HFE, KFE).
   void calcLegKinematics(int leg, const Eigen::Vector3d& q_leg, LegKinematics& out) const;

@@ -32,6 +32,11 @@ struct LocomotionSettings {
   /// point at every MPC cycle (the normal stays the configured one). Off: the configured plane
   /// is used as is. With boxes the plane follows the mean box height under the wheels.
   bool estimate_terrain_height = true;
+  /// With boxes: move a touchdown off the hip (by the leg's joint reference) when the wheel
+  /// would land on a box's edge or roll into its face during the following stance.
+  bool adapt_footholds = true;
+  double max_foothold_offset_m = 0.15;   ///< largest touchdown shift along the heading [m]
+  double foothold_edge_margin_m = 0.03;  ///< clearance of the wheel from a box edge [m]
 };
 
 /// See the file comment.
@@ -74,11 +79,15 @@ class LocomotionController {
   void updateTerrain(double t, const State& x);
   // Highest box under a wheel whose contact point is at p.
   double calcFootprintHeight(const Eigen::Vector3d& p) const;
+  // Shift along the heading of a touchdown planned at p that keeps the wheel off box edges
+  // and box faces over a stance in which it rolls `stance_travel` [m].
+  double calcFootholdShift(const Eigen::Vector3d& p, double stance_travel) const;
 
   LocomotionSettings settings_;
   TerrainPlane terrain_;
   std::vector<TerrainBox> boxes_;
-  std::array<double, kNumLegs> last_stance_height_{};         // box height under each stance wheel
+  std::array<double, kNumLegs> last_stance_height_{};  // box height under each stance wheel
+  std::array<SwingHeights, kNumLegs> held_swing_{};    // last swing; its foothold held in stance
   std::array<Eigen::Vector2d, kNumLegs> nominal_wheel_xy_{};  // in B
   SqpSolver solver_;
   ReferenceGenerator reference_;

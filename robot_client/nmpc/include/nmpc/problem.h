@@ -54,6 +54,11 @@ struct SwingHeights {
   double t_touchdown = 0.0;  ///< [s]
   double h_liftoff = 0.0;    ///< [m]
   double h_touchdown = 0.0;  ///< [m]
+  /// Foothold: the leg's joint reference moves (smoothstep over the swing) to q_foothold, which
+  /// lands the wheel off the hip, and holds it until t_release (the next lift-off).
+  bool has_foothold = false;
+  Eigen::Vector3d q_foothold = Eigen::Vector3d::Zero();  ///< HAA, HFE, KFE [rad]
+  double t_release = 0.0;                                ///< [s]
 };
 
 /// Swings per leg that Targets can describe.

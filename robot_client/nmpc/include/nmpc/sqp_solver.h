@@ -151,6 +151,7 @@ class SqpSolver {
   std::vector<LqStage> lq_;
   std::vector<RiccatiGain> gains_;
   std::vector<ReducedVector> dz_;
+  std::vector<ContactFlags> prev_contact_;  // node contacts of the previous solve
 
   std::vector<std::pair<double, double>> filter_;
   bool converged_at_round_off_ =
