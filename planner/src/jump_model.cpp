@@ -721,6 +721,7 @@ struct JumpModelAccess {
     double energy = 0.0, prev_power = 0.0, prev_t = 0.0;
     Sample smp;
     Eigen::Vector2d c_guess = M.c0_;
+    Eigen::Vector2d q_to_hind, q_to_front;
     const int n_phases = S.two_step ? 2 : 1;
     for (int phase = 0; phase < n_phases; ++phase) {
       const int n = phase == 0 ? st.samples_phase1 : st.samples_phase2;
@@ -756,11 +757,13 @@ struct JumpModelAccess {
         prev_t = t;
       }
     }
+    q_to_hind = smp.hind.q;
+    q_to_front = smp.front.q;
     for (int k = 1; k <= st.samples_flight; ++k) {
       const double t = S.t2 + S.Tf * k / st.samples_flight;
       const PlanarState s = flightState(M, S, t);
-      const std::array<Eigen::Vector2d, 2> q = {flightPosture(M, S, S.q_to[0], t, nullptr),
-                                                flightPosture(M, S, S.q_to[1], t, nullptr)};
+      const std::array<Eigen::Vector2d, 2> q = {flightPosture(M, S, q_to_hind, t, nullptr),
+                                                flightPosture(M, S, q_to_front, t, nullptr)};
       const Eigen::Vector2d c = comOffset(M, poseOf(q[0]), poseOf(q[1])).c;
       emitBody(M, t, s, c, nullptr, &q, sink);
     }
@@ -1156,6 +1159,7 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const 
 
   Sample smp;
   Eigen::Vector2d c_guess = c0_;
+  Eigen::Vector2d q_to[2], wheel_to;
   for (int k = 0; k < N; ++k) {
     const double t = std::min(k * plan.dt, S.t3);
     std::array<Eigen::Vector2d, 2> q, qd;
@@ -1183,6 +1187,9 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const 
           plan.tau(k, model::jointIndex(leg, JointKind::KFE)) = p.contact ? p.tau[1] : 0.0;
         }
       }
+      q_to[0] = smp.hind.q;
+      q_to[1] = smp.front.q;
+      wheel_to = Eigen::Vector2d(smp.hind.wheel_rate, smp.front.wheel_rate);
     } else {
       s = JumpModelAccess::flightState(*this, S, t);
       for (int pair = 0; pair < 2; ++pair) {
