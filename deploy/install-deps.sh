@@ -23,6 +23,9 @@ PACKAGES=(
   openssl clang libclang-rt-14-dev
   # plots
   gnuplot-nox
+  # shared cache of the planning service (docs/scaling.md): the Redis server the tests start,
+  # its C client; python3-yaml for the checks of the Kubernetes manifests
+  redis-server libhiredis-dev python3-yaml
 )
 
 SUDO=""

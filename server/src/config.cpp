@@ -26,6 +26,16 @@ std::string_view toString(TlsMode mode) {
   return "?";
 }
 
+std::string_view toString(CacheBackend backend) {
+  switch (backend) {
+    case CacheBackend::Sqlite:
+      return "sqlite";
+    case CacheBackend::Redis:
+      return "redis";
+  }
+  return "?";
+}
+
 namespace {
 
 // A strict reader of one YAML map: every key must be read exactly once (missing keys are
@@ -66,6 +76,25 @@ class MapReader {
     }
     fail("bad value for '" + name(key) + "': '" + text +
          "' is not one of insecure, tls, mutual_tls");
+  }
+
+  void readCacheBackend(const std::string& key, CacheBackend& target) {
+    std::string text;
+    read(key, text);
+    for (const CacheBackend b : {CacheBackend::Sqlite, CacheBackend::Redis}) {
+      if (text == toString(b)) {
+        target = b;
+        return;
+      }
+    }
+    fail("bad value for '" + name(key) + "': '" + text + "' is not one of sqlite, redis");
+  }
+
+  /// Whether `key` is present (for the few optional keys; it still counts as known).
+  bool has(const std::string& key) {
+    seen_.insert(key);
+    const YAML::Node value = node_[key];
+    return value.IsDefined() && !value.IsNull();
   }
 
   void section(const std::string& key, const std::function<void(MapReader&)>& body) {
@@ -200,6 +229,34 @@ void ServerConfig::validate() const {
           "cache.warm_start_neighbors", "in [0, 16]", cache.warm_start_neighbors);
   require(cache.warm_start_max_distance_m_s >= 0 && cache.warm_start_max_distance_m_s <= 5,
           "cache.warm_start_max_distance_m_s", "in [0, 5] m/s", cache.warm_start_max_distance_m_s);
+  if (cache.backend == CacheBackend::Redis) {
+    const auto& r = cache.redis;
+    require(cache.path.empty(), "cache.path",
+            "\"\" with cache.backend redis (Redis replaces SQLite)", 0.0);
+    require(!r.host.empty(), "cache.redis.host", "a host name or address", 0.0);
+  }
+  {
+    const auto& r = cache.redis;
+    require(r.port >= 1 && r.port <= 65535, "cache.redis.port", "in [1, 65535]", r.port);
+    require(r.db >= 0 && r.db <= 15, "cache.redis.db", "in [0, 15]", r.db);
+    require(!r.key_prefix.empty() && r.key_prefix.size() <= 64 &&
+                r.key_prefix.find_first_of(" \t\r\n") == std::string::npos,
+            "cache.redis.key_prefix", "1 to 64 characters without white space",
+            static_cast<double>(r.key_prefix.size()));
+    require(r.connect_timeout_ms >= 1 && r.connect_timeout_ms <= 10000,
+            "cache.redis.connect_timeout_ms", "in [1, 10000] ms", r.connect_timeout_ms);
+    require(r.command_timeout_ms >= 1 && r.command_timeout_ms <= 10000,
+            "cache.redis.command_timeout_ms", "in [1, 10000] ms", r.command_timeout_ms);
+    require(r.ttl_s >= 0 && r.ttl_s <= 365 * 24 * 3600, "cache.redis.ttl_s",
+            "in [0, 31536000] s (0 = no expiry)", r.ttl_s);
+    require(r.reconnect_min_ms >= 1 && r.reconnect_min_ms <= 60000, "cache.redis.reconnect_min_ms",
+            "in [1, 60000] ms", r.reconnect_min_ms);
+    require(r.reconnect_max_ms >= r.reconnect_min_ms && r.reconnect_max_ms <= 600000,
+            "cache.redis.reconnect_max_ms", "in [cache.redis.reconnect_min_ms, 600000] ms",
+            r.reconnect_max_ms);
+    require(r.preload_entries >= 0 && r.preload_entries <= 10'000'000,
+            "cache.redis.preload_entries", "in [0, 10^7]", static_cast<double>(r.preload_entries));
+  }
   require(warm_cache.max_streams >= 0 && warm_cache.max_streams <= 16, "warm_cache.max_streams",
           "in [0, 16]", warm_cache.max_streams);
   require(warm_cache.point_budget_s > 0 && warm_cache.point_budget_s <= 600,
@@ -282,6 +339,10 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
   });
   top.section("cache", [&](MapReader& r) {
     auto& k = c.cache;
+    // The backend is opt-in: without the key the cache is SQLite (or memory only), so that the
+    // configurations written before the shared cache stay valid. The redis section is required
+    // with backend redis, and read strictly (every key) whenever it is present.
+    if (r.has("backend")) r.readCacheBackend("backend", k.backend);
     r.read("path", k.path);
     r.read("max_memory_entries", k.max_memory_entries);
     r.read("max_persisted_entries", k.max_persisted_entries);
@@ -295,6 +356,23 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
     r.read("posture_bin_rad", k.posture_bin_rad);
     r.read("warm_start_neighbors", k.warm_start_neighbors);
     r.read("warm_start_max_distance_m_s", k.warm_start_max_distance_m_s);
+    if (k.backend == CacheBackend::Redis && !r.has("redis"))
+      throw std::runtime_error("server config " + origin +
+                               ": missing key 'cache.redis' (required with cache.backend redis)");
+    if (r.has("redis"))
+      r.section("redis", [&](MapReader& rr) {
+        auto& x = k.redis;
+        rr.read("host", x.host);
+        rr.read("port", x.port);
+        rr.read("db", x.db);
+        rr.read("key_prefix", x.key_prefix);
+        rr.read("connect_timeout_ms", x.connect_timeout_ms);
+        rr.read("command_timeout_ms", x.command_timeout_ms);
+        rr.read("ttl_s", x.ttl_s);
+        rr.read("reconnect_min_ms", x.reconnect_min_ms);
+        rr.read("reconnect_max_ms", x.reconnect_max_ms);
+        rr.read("preload_entries", x.preload_entries);
+      });
   });
   top.section("warm_cache", [&](MapReader& r) {
     r.read("max_streams", c.warm_cache.max_streams);
@@ -373,6 +451,7 @@ std::string ServerConfig::toYaml() const {
     << "  max_touchdown_pitch_error_rad: " << num(verification.max_touchdown_pitch_error_rad)
     << "\n";
   o << "cache:\n"
+    << "  backend: " << toString(cache.backend) << "\n"
     << "  path: " << quote(cache.path) << "\n"
     << "  max_memory_entries: " << cache.max_memory_entries << "\n"
     << "  max_persisted_entries: " << cache.max_persisted_entries << "\n"
@@ -385,7 +464,18 @@ std::string ServerConfig::toYaml() const {
     << "  pitch_rate_bin_rad_s: " << num(cache.pitch_rate_bin_rad_s) << "\n"
     << "  posture_bin_rad: " << num(cache.posture_bin_rad) << "\n"
     << "  warm_start_neighbors: " << cache.warm_start_neighbors << "\n"
-    << "  warm_start_max_distance_m_s: " << num(cache.warm_start_max_distance_m_s) << "\n";
+    << "  warm_start_max_distance_m_s: " << num(cache.warm_start_max_distance_m_s) << "\n"
+    << "  redis:\n"
+    << "    host: " << quote(cache.redis.host) << "\n"
+    << "    port: " << cache.redis.port << "\n"
+    << "    db: " << cache.redis.db << "\n"
+    << "    key_prefix: " << quote(cache.redis.key_prefix) << "\n"
+    << "    connect_timeout_ms: " << cache.redis.connect_timeout_ms << "\n"
+    << "    command_timeout_ms: " << cache.redis.command_timeout_ms << "\n"
+    << "    ttl_s: " << cache.redis.ttl_s << "\n"
+    << "    reconnect_min_ms: " << cache.redis.reconnect_min_ms << "\n"
+    << "    reconnect_max_ms: " << cache.redis.reconnect_max_ms << "\n"
+    << "    preload_entries: " << cache.redis.preload_entries << "\n";
   o << "warm_cache:\n"
     << "  max_streams: " << warm_cache.max_streams << "\n"
     << "  point_budget_s: " << num(warm_cache.point_budget_s) << "\n";

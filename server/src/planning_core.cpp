@@ -146,7 +146,7 @@ struct PlanningCore::WarmState {
 PlanningCore::PlanningCore(const ServerConfig& config, model::RobotModel robot,
                            planner::PlannerSettings settings,
                            std::unique_ptr<PlanVerifier> verifier,
-                           std::unique_ptr<SolutionStore> store)
+                           std::unique_ptr<SecondLevelStore> store)
     : config_(config),
       planner_(std::move(robot), std::move(settings)),
       verifier_(config.verification.enabled ? std::move(verifier) : nullptr),

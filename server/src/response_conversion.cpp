@@ -189,6 +189,18 @@ void toProto(const StatsSnapshot& s, v1::GetStatsResponse* out) {
   }
   out->set_uptime_s(s.uptime_s);
   out->set_warm_starts(s.warm_starts);
+  auto* store = out->mutable_store();
+  const auto& c = s.cache.store;
+  store->set_backend(s.cache.backend);
+  store->set_available(s.cache.backend == "none" || c.available);
+  store->set_hits(static_cast<std::uint64_t>(s.cache.persisted_hits));
+  store->set_writes(static_cast<std::uint64_t>(c.writes));
+  store->set_write_errors(static_cast<std::uint64_t>(c.write_errors));
+  store->set_read_errors(static_cast<std::uint64_t>(c.read_errors));
+  store->set_corrupt_values(static_cast<std::uint64_t>(c.corrupt_rows));
+  store->set_reconnects(static_cast<std::uint64_t>(c.reconnects));
+  store->set_writes_skipped(static_cast<std::uint64_t>(c.writes_skipped));
+  store->set_entries_loaded(static_cast<std::uint64_t>(c.rows_loaded));
 }
 
 void toProto(const WarmProgress& p, v1::WarmCacheProgress* out) {

@@ -11,6 +11,8 @@
 #include <sstream>
 
 #include "server/plan_verifier.h"
+#include "server/redis_store.h"
+#include "server/solution_store.h"
 
 namespace wj::server {
 
@@ -61,10 +63,13 @@ PlannerServer::PlannerServer(const ServerConfig& config) : config_(config) {
           "verification.enabled is true but this build has no verifier (sim component not "
           "built): every plan is answered with verification NOT_RUN");
   }
-  std::unique_ptr<SolutionStore> store;
-  if (!config_.cache.path.empty())
+  std::unique_ptr<SecondLevelStore> store;
+  if (config_.cache.backend == CacheBackend::Redis) {
+    store = std::make_unique<RedisStore>(config_.cache.redis);
+  } else if (!config_.cache.path.empty()) {
     store = std::make_unique<SolutionStore>(config_.cache.path, config_.cache.synchronous_full,
                                             config_.cache.max_persisted_entries);
+  }
   core_ = std::make_unique<PlanningCore>(config_, std::move(robot), std::move(settings),
                                          std::move(verifier), std::move(store));
   service_ = std::make_unique<JumpPlannerService>(*core_, config_);
@@ -112,8 +117,13 @@ std::string PlannerServer::address() const {
 std::string PlannerServer::describe() const {
   std::ostringstream ss;
   ss << "verifier: " << (core_->verifier() ? core_->verifier()->name() : "none (NOT_RUN)")
-     << "; cache: " << (config_.cache.path.empty() ? "memory only" : config_.cache.path) << " ("
-     << core_->stats().cache_entries << " entries loaded); tls: " << toString(config_.tls.mode);
+     << "; cache: "
+     << (config_.cache.backend == CacheBackend::Redis
+             ? "redis " + config_.cache.redis.host + ":" + std::to_string(config_.cache.redis.port)
+         : config_.cache.path.empty() ? std::string("memory only")
+                                      : config_.cache.path)
+     << " (" << core_->stats().cache_entries
+     << " entries loaded); tls: " << toString(config_.tls.mode);
   return ss.str();
 }
 

@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <string>
 
 namespace wj::server {
 
-SolutionCache::SolutionCache(std::int64_t max_entries, std::unique_ptr<SolutionStore> store)
+SolutionCache::SolutionCache(std::int64_t max_entries, std::unique_ptr<SecondLevelStore> store)
     : max_entries_(std::max<std::int64_t>(1, max_entries)), store_(std::move(store)) {
   if (!store_) return;
   // Newest first: the first rows read are the most recently written, so the LRU order after
@@ -117,7 +118,10 @@ CacheCounters SolutionCache::counters() const {
     c.evictions = evictions_;
     c.persisted_hits = persisted_hits_;
   }
-  if (store_) c.store = store_->counters();
+  if (store_) {
+    c.store = store_->counters();
+    c.backend = std::string(store_->backend());
+  }
   return c;
 }
 

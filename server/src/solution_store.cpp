@@ -311,6 +311,10 @@ void SolutionStore::checkpoint() {
   exec("PRAGMA wal_checkpoint(TRUNCATE)");
 }
 
+std::string SolutionStore::describe() const {
+  return "sqlite " + path_.string();
+}
+
 StoreCounters SolutionStore::counters() const {
   std::lock_guard lock(counters_mu_);
   return counters_;

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "server/planning_core.h"
+#include "server/solution_store.h"
 #include "server_test_util.h"
 
 namespace wj::server {

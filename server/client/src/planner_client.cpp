@@ -53,6 +53,11 @@ struct PlannerClient::Impl {
     args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
     args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
     args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
+    // The load-balancing policy comes from this service config only (not from DNS TXT records).
+    args.SetServiceConfigJSON(options.load_balancing == LoadBalancing::RoundRobin
+                                  ? R"({"loadBalancingConfig": [{"round_robin": {}}]})"
+                                  : R"({"loadBalancingConfig": [{"pick_first": {}}]})");
+    args.SetInt(GRPC_ARG_SERVICE_CONFIG_DISABLE_RESOLUTION, 1);
     std::shared_ptr<grpc::ChannelCredentials> creds;
     if (options.use_tls) {
       grpc::SslCredentialsOptions ssl;

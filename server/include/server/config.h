@@ -1,7 +1,10 @@
 #pragma once
 /// @file Configuration of planner_server, read from YAML. Every key is required and unknown keys
 /// are errors (no silent fallback on a misspelling, see STYLE.md); the sample with every key and
-/// its meaning is config/planner_server.yaml, the reference docs/service.md.
+/// its meaning is config/planner_server.yaml, the reference docs/service.md. One exception, so
+/// that configurations written before the shared cache stay valid: cache.backend may be left
+/// out (sqlite), and cache.redis with it; with backend redis, cache.redis and all its keys are
+/// required.
 
 #include <cstdint>
 #include <filesystem>
@@ -57,8 +60,32 @@ struct VerificationConfig {
   double max_touchdown_pitch_error_rad = 0.35;  ///< acceptance: touchdown pitch error [rad]
 };
 
+/// The second level of the cache, behind the in-memory LRU.
+enum class CacheBackend {
+  Sqlite,  ///< the embedded SQLite file of cache.path (the default; "" = memory only)
+  Redis,   ///< a Redis shared by several replicas (cache.redis; docs/scaling.md)
+};
+/// "sqlite", "redis".
+std::string_view toString(CacheBackend backend);
+
+/// The shared Redis store (cache.backend: redis). docs/scaling.md.
+struct RedisConfig {
+  std::string host = "127.0.0.1";  ///< host name or address of the Redis server
+  int port = 6379;                 ///< TCP port, in [1, 65535]
+  int db = 0;                      ///< logical database (SELECT), in [0, 15]
+  std::string key_prefix = "wj";   ///< keys are "<prefix>:plan:v<schema>:<key hex>"
+  int connect_timeout_ms = 200;    ///< bound on one connection attempt, in [1, 10000]
+  int command_timeout_ms = 100;    ///< bound on one command's reply, in [1, 10000]
+  int ttl_s = 0;                   ///< expiry of written entries [s]; 0 = none
+  int reconnect_min_ms = 100;      ///< first wait after a failure before reconnecting
+  int reconnect_max_ms = 5000;     ///< the wait doubles up to this
+  /// Entries read into memory at start (SCAN, at most cache.max_memory_entries); 0 = none.
+  std::int64_t preload_entries = 10000;
+};
+
 /// Solution cache keyed by the initial velocity (docs/service.md, "Cache").
 struct CacheConfig {
+  CacheBackend backend = CacheBackend::Sqlite;  ///< the second level behind the memory LRU
   std::string path;  ///< SQLite file; "" = in memory only (nothing survives a restart)
   std::int64_t max_memory_entries = 100000;      ///< LRU bound in memory, >= 1
   std::int64_t max_persisted_entries = 1000000;  ///< oldest rows beyond this are pruned
@@ -72,6 +99,7 @@ struct CacheConfig {
   double posture_bin_rad = 0.02;             ///< bin of the non-wheel joint positions
   int warm_start_neighbors = 2;              ///< cached neighbours seeding a miss, >= 0
   double warm_start_max_distance_m_s = 0.5;  ///< how far in v0 a neighbour may be [m/s]
+  RedisConfig redis;                         ///< used when backend is Redis
 };
 
 /// WarmCache streams.

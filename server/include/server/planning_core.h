@@ -124,7 +124,7 @@ class PlanningCore {
   /// reported NOT_RUN), `store` may be null (memory-only cache).
   PlanningCore(const ServerConfig& config, model::RobotModel robot,
                planner::PlannerSettings settings, std::unique_ptr<PlanVerifier> verifier,
-               std::unique_ptr<SolutionStore> store);
+               std::unique_ptr<SecondLevelStore> store);
   /// Calls shutdown().
   ~PlanningCore();
   PlanningCore(const PlanningCore&) = delete;

@@ -1,7 +1,7 @@
 #pragma once
-/// @file The solution cache: an LRU in memory with an entry bound, over an optional SQLite store
-/// that survives restarts. An index by key family (everything but v0) finds the nearest cached
-/// run-up speeds to warm-start a miss.
+/// @file The solution cache: an LRU in memory with an entry bound, over an optional second-level
+/// store (SQLite that survives restarts, or a Redis shared by replicas). An index by key family
+/// (everything but v0) finds the nearest cached run-up speeds to warm-start a miss.
 
 #include <cstdint>
 #include <list>
@@ -15,33 +15,34 @@
 
 #include "server/cache_key.h"
 #include "server/cached_solution.h"
-#include "server/solution_store.h"
+#include "server/second_level_store.h"
 
 namespace wj::server {
 
 /// Counters of the cache since it was built.
 struct CacheCounters {
   std::int64_t entries = 0;         ///< in memory now
-  std::int64_t evictions = 0;       ///< memory evictions (the rows stay in SQLite)
-  std::int64_t persisted_hits = 0;  ///< misses in memory found in SQLite
+  std::int64_t evictions = 0;       ///< memory evictions (the entries stay in the store)
+  std::int64_t persisted_hits = 0;  ///< misses in memory found in the store
+  std::string backend = "none";     ///< the store's backend(): "none", "sqlite", "redis"
   StoreCounters store;
 };
 
-/// Thread-safe; every operation holds one mutex for a short time except the SQLite calls,
+/// Thread-safe; every operation holds one mutex for a short time except the store's calls,
 /// which take the store's own lock.
 class SolutionCache {
  public:
   /// `store` may be null (memory only). Loads the newest `max_entries` valid rows of the store.
-  SolutionCache(std::int64_t max_entries, std::unique_ptr<SolutionStore> store);
+  SolutionCache(std::int64_t max_entries, std::unique_ptr<SecondLevelStore> store);
 
   /// The entry of `key` in memory (and marks it most recently used).
   std::optional<CachedSolution> find(const CacheKey& key);
-  /// The entry of `key` in SQLite, promoted into memory when found. Slow path: call it off the
-  /// RPC threads.
+  /// The entry of `key` in the store, promoted into memory when found. Slow path: call it off
+  /// the RPC threads. A store that cannot be reached answers a miss.
   std::optional<CachedSolution> findPersisted(const CacheKey& key);
   /// Stores `solution` unless the current entry is better (isBetterSolution). Persists it first,
   /// so that it is committed when put() returns; returns false if it was not stored. A failed
-  /// SQLite write keeps the solution in memory and rethrows.
+  /// store write keeps the solution in memory and rethrows.
   bool put(const CacheKey& key, const CachedSolution& solution);
   /// Up to `n` entries of the family of `key` (other v0 bins) nearest to its v0 bin, at most
   /// `max_bin_distance` bins away, nearest first, as (v0 bin, solution).
@@ -57,7 +58,7 @@ class SolutionCache {
   void insertLocked(const CacheKey& key, const CachedSolution& solution);
 
   std::int64_t max_entries_;
-  std::unique_ptr<SolutionStore> store_;
+  std::unique_ptr<SecondLevelStore> store_;
   mutable std::mutex mu_;
   Lru lru_;  ///< most recently used first
   std::unordered_map<CacheKey, Lru::iterator, CacheKeyHash> map_;

@@ -16,50 +16,44 @@
 
 #include "server/cache_key.h"
 #include "server/cached_solution.h"
+#include "server/second_level_store.h"
 
 struct sqlite3;
 struct sqlite3_stmt;
 
 namespace wj::server {
 
-/// Counters of the store since it was opened.
-struct StoreCounters {
-  std::int64_t rows_loaded = 0;   ///< rows read back at open
-  std::int64_t corrupt_rows = 0;  ///< rows refused (checksum, decode, key length)
-  std::int64_t writes = 0;        ///< committed puts
-  std::int64_t write_errors = 0;  ///< puts that failed (disk full, I/O)
-  std::int64_t pruned_rows = 0;   ///< oldest rows deleted to respect the row bound
-  bool recreated = false;         ///< the file was unreadable and was moved aside
-};
-
 /// One SQLite database of solutions. Thread-safe (one connection behind a mutex).
-class SolutionStore {
+class SolutionStore final : public SecondLevelStore {
  public:
   /// Opens or creates `path`. A file that SQLite cannot read as a database is renamed to
   /// `<path>.corrupt-<unix time>` and a fresh one is created (recreated = true). Throws
   /// std::runtime_error if the database cannot be opened at all.
   SolutionStore(const std::filesystem::path& path, bool synchronous_full, std::int64_t max_rows);
-  ~SolutionStore();
+  ~SolutionStore() override;
   SolutionStore(const SolutionStore&) = delete;
   SolutionStore& operator=(const SolutionStore&) = delete;
 
   /// Inserts or replaces the row of `key`; returns when committed. Throws std::runtime_error on
   /// failure (the caller keeps the solution in memory).
-  void put(const CacheKey& key, const CachedSolution& solution);
+  void put(const CacheKey& key, const CachedSolution& solution) override;
   /// Inserts or replaces many rows in one transaction (bulk loads, benchmarks); returns when
   /// committed. Throws std::runtime_error on failure (nothing of the batch is written then).
   void putMany(const std::vector<std::pair<CacheKey, CachedSolution>>& rows);
   /// The row of `key` if it exists and passes its checksum.
-  std::optional<CachedSolution> get(const CacheKey& key);
+  std::optional<CachedSolution> get(const CacheKey& key) override;
   /// Calls `visit` for every valid row, most recently written first, at most `limit` rows.
   /// Invalid rows are deleted and counted.
-  void forEachNewest(std::int64_t limit,
-                     const std::function<void(const CacheKey&, const CachedSolution&)>& visit);
+  void forEachNewest(
+      std::int64_t limit,
+      const std::function<void(const CacheKey&, const CachedSolution&)>& visit) override;
   /// Number of rows.
   std::int64_t count();
   /// Copies the WAL into the database file (TRUNCATE checkpoint); called at shutdown.
-  void checkpoint();
-  StoreCounters counters() const;
+  void checkpoint() override;
+  StoreCounters counters() const override;
+  std::string_view backend() const override { return "sqlite"; }
+  std::string describe() const override;
   const std::filesystem::path& path() const { return path_; }
 
  private:

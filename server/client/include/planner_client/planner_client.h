@@ -33,8 +33,22 @@ struct ClientTls {
   std::string target_name_override;  ///< expected server name if it differs from the target
 };
 
+/// How the channel spreads calls over the addresses its target resolves to.
+enum class LoadBalancing {
+  PickFirst,   ///< one connection to the first address that answers (gRPC's default)
+  RoundRobin,  ///< a connection to every address, calls in turn (several replicas)
+};
+
 struct ClientOptions {
-  std::string target = "127.0.0.1:50051";            ///< host:port of planner_server
+  /// gRPC target: "host:port" of one planner_server, or a name resolving to several replicas,
+  /// e.g. "dns:///planner-headless.wheeljump.svc.cluster.local:50051" (a Kubernetes headless
+  /// Service: one A record per ready pod) or "ipv4:127.0.0.1:50051,127.0.0.1:50052".
+  std::string target = "127.0.0.1:50051";
+  /// Policy over the resolved addresses, set in the channel's service config
+  /// (loadBalancingConfig). Use RoundRobin with a target that resolves to several replicas;
+  /// the DNS resolver re-resolves when a connection drops, so a scaled or rescheduled
+  /// Deployment is picked up (docs/scaling.md).
+  LoadBalancing load_balancing = LoadBalancing::PickFirst;
   std::chrono::milliseconds default_deadline{2000};  ///< for calls given no deadline
   int max_attempts = 5;  ///< attempts per call while the answer is UNAVAILABLE (>= 1)
   std::chrono::milliseconds initial_backoff{50};  ///< wait before the first retry
