@@ -204,6 +204,33 @@ TEST(CanRobot, WheelAnglesAreUnwrappedPastThePositionRange) {
   }
 }
 
+TEST(CanRobot, ZeroMakesThePresentPositionTheOffset) {
+  const model::RobotModel m = test::loadRobot();
+  Harness h(m, mappedSettings());
+  model::SensorData out;
+  MotorStates s{};
+  for (int j = 0; j < kNumJoints; ++j) s[j] = {0.3 + 0.01 * j, 0.0, 0.0};
+  h.enable(s, out);
+  h.step({}, s, out);
+  ASSERT_TRUE(h.robot->zero());
+  h.serviceMotors();
+  h.respond(s);
+  h.robot->read(out);
+  const MitSteps st = mitSteps(MitLimits{});
+  for (int j = 0; j < kNumJoints; ++j) {
+    EXPECT_NEAR(h.motors[j]->zeroOffset(), s[j].p, 1e-12);
+    // The calibration posture now reads as offset_rad.
+    EXPECT_NEAR(out.joints[j].q, h.settings.motors[j].offset_rad, 0.5 * st.p + 1e-9) << j;
+  }
+  // Commands are relative to the new zero: the drive targets the same physical angle.
+  model::JointCommands c{};
+  const int j = jointIndex(Leg::LF, JointKind::KFE);
+  c[j] = {h.settings.motors[j].offset_rad, 0.0, 50.0, 1.0, 0.0};
+  h.step(c, s, out);
+  EXPECT_NEAR(h.motors[j]->physicalCommand().p_des, s[j].p, 0.5 * st.p + 1e-9);
+  EXPECT_FALSE(h.robot->hasFault());
+}
+
 class MissingReplies : public testing::TestWithParam<int> {};
 
 TEST_P(MissingReplies, RaiseTheFaultAfterNPeriods) {

@@ -87,6 +87,8 @@ class CanRobot final : public model::RobotInterface {
   /// (CanRobotSettings::validateAgainst) or a bus is null.
   CanRobot(const model::RobotModel& model, const CanRobotSettings& settings,
            const std::array<CanBus*, model::kNumLegs>& buses, ImuSource& imu);
+  CanRobot(const CanRobot&) = delete;
+  CanRobot& operator=(const CanRobot&) = delete;
 
   // RobotInterface ---------------------------------------------------------------------------
   double controlPeriod() const override { return settings_.control_period_s; }
