@@ -26,6 +26,9 @@ PACKAGES=(
   # shared cache of the planning service (docs/scaling.md): the Redis server the tests start,
   # its C client; python3-yaml for the checks of the Kubernetes manifests
   redis-server libhiredis-dev python3-yaml
+  # Debian packages (cmake/Packaging.cmake): dpkg-shlibdeps for Depends, file for CPack's ELF
+  # detection, systemd for `systemd-analyze verify` of the units in the deploy tests
+  dpkg-dev file systemd
 )
 
 SUDO=""

@@ -156,9 +156,21 @@ std::string_view toString(JointKind kind) {
 
 std::filesystem::path RobotModel::defaultModelsDir() {
   if (const char* env = std::getenv("WJ_MODELS_DIR"); env && *env) return env;
-  const std::filesystem::path installed = WJ_INSTALLED_MODELS_DIR;
-  if (std::filesystem::exists(installed / "wheeljump.urdf")) return installed;
-  return WJ_SOURCE_MODELS_DIR;
+  const auto has_model = [](const std::filesystem::path& dir) {
+    std::error_code ec;
+    return std::filesystem::exists(dir / "wheeljump.urdf", ec);
+  };
+  // An installed binary (<prefix>/bin/x) finds <prefix>/share/wheeljump/models next to it, also
+  // when the tree was unpacked somewhere else (dpkg --root, a staging directory).
+  std::error_code ec;
+  const auto exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const auto beside = exe.parent_path().parent_path() / "share" / "wheeljump" / "models";
+    if (has_model(beside)) return beside;
+  }
+  // A binary in the build tree reads the source tree, so that edits to models/ apply at once.
+  if (has_model(WJ_SOURCE_MODELS_DIR)) return WJ_SOURCE_MODELS_DIR;
+  return WJ_INSTALLED_MODELS_DIR;
 }
 
 RobotModel RobotModel::loadDefault() {

@@ -5,8 +5,11 @@
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 #include <csignal>
+#include <cstdlib>
 #include <iostream>
 
+#include "planner/planner_settings.h"
+#include "robot_model/robot_model.h"
 #include "server/config.h"
 #include "server/server_runner.h"
 
@@ -21,7 +24,32 @@ int main(int argc, char** argv) {
                  "host:port to listen on, overriding the configuration (default 127.0.0.1:50051; "
                  "port 0 picks a free port)");
   app.add_flag("--print-config", print_config, "print the effective configuration and exit");
+  std::string check_path;
+  app.add_option("--check-config", check_path,
+                 "read FILE with the strict reader, validate it, load the robot model and the "
+                 "planner settings it names, then exit: 0 valid, 2 not (TLS files and the "
+                 "cache folder are not checked: they belong to the machine)")
+      ->excludes("--config");
   CLI11_PARSE(app, argc, argv);
+
+  if (!check_path.empty()) {
+    try {
+      const auto config = wj::server::ServerConfig::fromYamlFile(check_path);
+      if (!config.models_dir.empty()) ::setenv("WJ_MODELS_DIR", config.models_dir.c_str(), 1);
+      const auto robot = wj::model::RobotModel::loadDefault();
+      if (!config.planner.settings_file.empty())
+        (void)wj::planner::PlannerSettings::fromYaml(config.planner.settings_file);
+      std::cout << check_path << ": ok (listen " << config.listen << ", tls "
+                << wj::server::toString(config.tls.mode) << ", cache "
+                << (config.cache.path.empty() ? "memory only" : config.cache.path) << ", model "
+                << robot.name() << " from " << wj::model::RobotModel::defaultModelsDir().string()
+                << ")" << std::endl;
+      return 0;
+    } catch (const std::exception& e) {
+      std::cerr << "planner_server: " << e.what() << std::endl;
+      return 2;
+    }
+  }
 
   // SIGTERM and SIGINT are taken synchronously by sigwait() below: blocked here, before any
   // thread starts, so that every thread inherits the mask.

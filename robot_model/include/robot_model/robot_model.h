@@ -91,9 +91,12 @@ class RobotModel {
   static RobotModel load(const std::filesystem::path& urdf,
                          const std::filesystem::path& actuators_yaml);
   /// The project's robot: models/wheeljump.urdf and models/actuators.yaml, from the folder in
-  /// the WJ_MODELS_DIR environment variable if set, else the install or source tree.
+  /// the WJ_MODELS_DIR environment variable if set, else defaultModelsDir().
   static RobotModel loadDefault();
-  /// Folder used by loadDefault().
+  /// Folder used by loadDefault(), the first that holds wheeljump.urdf of: $WJ_MODELS_DIR;
+  /// `<exe>/../share/wheeljump/models` (an installed binary, wherever the tree was unpacked);
+  /// the source tree's models/ (a binary in the build tree);
+  /// `<install prefix>/share/wheeljump/models`.
   static std::filesystem::path defaultModelsDir();
 
   const std::string& name() const { return name_; }
