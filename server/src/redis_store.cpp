@@ -250,11 +250,9 @@ bool RedisStore::tryPutLocked(const std::string& rkey, const CacheKey& key,
   }
   const redisReply* current = watched[1].get();
   if (current->type == REDIS_REPLY_STRING) {
+    // A corrupt stored value is overwritten below (it was counted when a get refused it).
     const auto stored = decodeRedisValue(key, replyString(current));
-    if (!stored) {
-      std::lock_guard c(counters_mu_);
-      ++counters_.corrupt_rows;  // overwritten below
-    } else if (!isBetterSolution(solution, *stored)) {
+    if (stored && !isBetterSolution(solution, *stored)) {
       (void)commandLocked({"UNWATCH"}, why);
       failed = false;
       std::lock_guard c(counters_mu_);
