@@ -31,6 +31,8 @@
 
 #include "planner_client/planner_client.h"
 #include "server/config.h"
+#include "server/redis_store.h"
+#include "server/solution_cache.h"
 #include "server/solution_store.h"
 #include "wheeljump/planner/v1/jump_planner.grpc.pb.h"
 
@@ -398,6 +400,69 @@ json benchMemory(const std::filesystem::path& dir, int entries) {
            rss <= 300.0 && stats.response.cache_entries() == static_cast<std::uint64_t>(entries)}};
 }
 
+// The second-level lookups against a running Redis at `host:port`, in process: a memory hit of
+// the LRU, a Redis hit, a Redis miss, a put (WATCH/GET/MULTI/SET/EXEC), and a get during an
+// outage (a closed port: the backoff answers without touching the network).
+json benchRedis(const std::string& address, int ops) {
+  using namespace wj::server;
+  RedisConfig rc;
+  rc.host = address.substr(0, address.rfind(':'));
+  rc.port = std::stoi(address.substr(address.rfind(':') + 1));
+  rc.key_prefix = "wj-bench-" + std::to_string(::getpid());
+  rc.ttl_s = 600;  // the benchmark's keys expire on their own
+  CachedSolution s;
+  for (std::size_t i = 0; i < s.u.size(); ++i) s.u[i] = 0.1 * static_cast<double>(i);
+  s.t1 = s.t2 = 0.3;
+  s.t3 = 0.9;
+  s.feasible = true;
+  s.verification.status = VerificationStatus::Passed;
+  const int keys = 1000;
+  const auto key = [](int i) {
+    CacheKey k;
+    k.v0_bin = i;
+    k.seed = 1;
+    return k;
+  };
+  RedisStore store(rc);
+  SolutionCache memory(keys, nullptr);
+  std::vector<double> put_ms, redis_hit_ms, redis_miss_ms, memory_hit_ms, outage_ms;
+  for (int i = 0; i < keys; ++i) {
+    const auto t0 = Clock::now();
+    store.put(key(i), s);
+    put_ms.push_back(msSince(t0));
+    memory.put(key(i), s);
+  }
+  for (int i = 0; i < ops; ++i) {
+    auto t0 = Clock::now();
+    if (!store.get(key(i % keys))) throw std::runtime_error("redis bench: a stored key missed");
+    redis_hit_ms.push_back(msSince(t0));
+    t0 = Clock::now();
+    (void)store.get(key(keys + i));
+    redis_miss_ms.push_back(msSince(t0));
+    t0 = Clock::now();
+    if (!memory.find(key(i % keys))) throw std::runtime_error("redis bench: memory missed");
+    memory_hit_ms.push_back(msSince(t0));
+  }
+  RedisConfig down = rc;
+  down.port = 1;  // nothing listens there
+  RedisStore unreachable(down);
+  for (int i = 0; i < ops; ++i) {
+    const auto t0 = Clock::now();
+    (void)unreachable.get(key(i % keys));
+    outage_ms.push_back(msSince(t0));
+  }
+  const auto c = store.counters();
+  return {{"redis", address},
+          {"value_bytes", encodeRedisValue(key(0), s).size()},
+          {"memory_hit", latencyJson(memory_hit_ms)},
+          {"redis_hit", latencyJson(redis_hit_ms)},
+          {"redis_miss", latencyJson(redis_miss_ms)},
+          {"redis_put", latencyJson(put_ms)},
+          {"outage_get", latencyJson(outage_ms)},
+          {"read_errors", c.read_errors},
+          {"outage_read_errors", unreachable.counters().read_errors}};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -415,7 +480,14 @@ int main(int argc, char** argv) {
   app.add_option("--entries", entries, "cached entries for the memory figure")
       ->capture_default_str();
   app.add_option("--seed", seed, "seed of the kill instants")->capture_default_str();
-  app.add_option("--only", only, "run one part: hits, cold, kill, memory");
+  app.add_option("--only", only, "run one part: hits, cold, kill, memory, redis");
+  std::string redis;
+  int redis_ops = 5000;
+  app.add_option("--redis", redis,
+                 "host:port of a running Redis: also measure the shared-cache lookups (part "
+                 "'redis'; its keys are written under a per-run prefix and expire after 10 min)");
+  app.add_option("--redis-ops", redis_ops, "lookups per figure of the redis part")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   ::signal(SIGPIPE, SIG_IGN);
 
@@ -435,6 +507,8 @@ int main(int argc, char** argv) {
     }
     if (only.empty() || only == "kill") out["kill9_durability"] = benchKill(dir, kill_rounds, seed);
     if (only.empty() || only == "memory") out["memory"] = benchMemory(dir, entries);
+    if (!redis.empty() && (only.empty() || only == "redis"))
+      out["shared_cache"] = benchRedis(redis, redis_ops);
   } catch (const std::exception& e) {
     out["error"] = e.what();
     std::cout << out.dump(2) << std::endl;
