@@ -41,9 +41,13 @@ int main(int argc, char** argv) {
         (void)wj::planner::PlannerSettings::fromYaml(config.planner.settings_file);
       std::cout << check_path << ": ok (listen " << config.listen << ", tls "
                 << wj::server::toString(config.tls.mode) << ", cache "
-                << (config.cache.path.empty() ? "memory only" : config.cache.path) << ", model "
-                << robot.name() << " from " << wj::model::RobotModel::defaultModelsDir().string()
-                << ")" << std::endl;
+                << (config.cache.backend == wj::server::CacheBackend::Redis
+                        ? "redis " + config.cache.redis.host + ":" +
+                              std::to_string(config.cache.redis.port)
+                    : config.cache.path.empty() ? std::string("memory only")
+                                                : config.cache.path)
+                << ", model " << robot.name() << " from "
+                << wj::model::RobotModel::defaultModelsDir().string() << ")" << std::endl;
       return 0;
     } catch (const std::exception& e) {
       std::cerr << "planner_server: " << e.what() << std::endl;

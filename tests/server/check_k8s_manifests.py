@@ -4,7 +4,7 @@ Every file parses as YAML; the kustomization lists every manifest; the planner D
 3 replicas, gRPC health probes on its container port, resources, and a non-root, read-only
 security context; the headless Service (clusterIP: None) selects the Deployment's pod labels
 and targets its port; the ConfigMap's server configuration is accepted by planner_server's own
-strict reader (--print-config), selects the redis backend, names the Redis Service and its port,
+strict reader (--check-config), selects the redis backend, names the Redis Service and its port,
 and listens on the container port; the Redis Deployment and Service agree on labels and ports.
 """
 import argparse
@@ -119,7 +119,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "planner_server.yaml"
         path.write_text(text)
-        run = subprocess.run([args.server, "--config", str(path), "--print-config"],
+        run = subprocess.run([args.server, "--check-config", str(path)],
                              capture_output=True, text=True, timeout=60)
         need(run.returncode == 0, f"planner_server refuses the ConfigMap's config: {run.stderr}")
     config = yaml.safe_load(text)
