@@ -1,0 +1,184 @@
+// robot_client: the on-robot program. Runs the 1 kHz control loop (estimator, NMPC policy or
+// jump plan, PD and wheel law, safety), the NMPC thread, the asynchronous planner client, and
+// the jump state machine, on the Simbody robot (--backend sim, optionally through emulated CAN
+// frames with --via-can) or on MIT-mode motors over SocketCAN (--backend can).
+//
+// Exit status: 0 the scenario did what it should (jumped, cleared, landed and stopped), 3 it did
+// not (aborted, fell, or hit the wall; the summary says why), 2 an error.
+#include <spdlog/spdlog.h>
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <thread>
+
+#include "robot_client/backends.h"
+#include "robot_client/client_settings.h"
+#include "robot_client/control_loop.h"
+#include "robot_client/mpc_worker.h"
+#include "robot_client/plan_requester.h"
+#include "robot_client/run_report.h"
+#include "rt/loop_stats.h"
+#include "rt/periodic_timer.h"
+#include "rt/realtime.h"
+#include "rt/watchdog.h"
+
+namespace {
+
+namespace rc = wj::robot_client;
+using nlohmann::json;
+
+struct Options {
+  std::string backend = "sim";
+  std::string config;
+  std::string planner;
+  std::string scenario = "forward";
+  bool via_can = false;
+  std::uint64_t seed = 1;
+  bool noise = true;
+  std::string csv;
+  std::string plot;
+  bool json_out = false;
+  std::vector<std::string> can_interfaces = {"can0", "can1", "can2", "can3"};
+};
+
+int run(const Options& opt) {
+  const wj::model::RobotModel robot = wj::model::RobotModel::loadDefault();
+  const rc::ClientSettings settings = rc::loadClientSettings(opt.config);
+  const rc::ScenarioSettings& scenario = settings.scenario(opt.scenario);
+
+  wj::nmpc::LocomotionSettings loco;
+  wj::nmpc::LocomotionController controller(robot, loco);
+
+  std::unique_ptr<rc::Backend> backend;
+  if (opt.backend == "sim") {
+    backend = rc::makeSimBackend(robot, controller, scenario, opt.seed, opt.noise, opt.via_can);
+  } else if (opt.backend == "can") {
+    backend = rc::makeCanBackend(robot, opt.can_interfaces);
+  } else {
+    throw std::invalid_argument("--backend must be sim or can, got '" + opt.backend + "'");
+  }
+  const bool simulated = opt.backend == "sim";
+
+  std::unique_ptr<rc::PlanRequester> requester;
+  if (!opt.planner.empty())
+    requester = std::make_unique<rc::PlanRequester>(opt.planner, settings.planner, robot,
+                                                    settings.executor, 9.81);
+  else
+    spdlog::warn("no --planner given: the jump will be aborted at the decision point");
+
+  rc::MpcWorker mpc(controller, settings.loop.mpc_period_s, /*lockstep=*/simulated);
+  rc::ControlLoop loop(robot, settings, scenario, backend->robot(), controller, mpc,
+                       requester.get(), backend->faults());
+  rc::RunRecorder recorder(robot, settings, scenario, opt.csv);
+
+  loop.initialise(backend->startPosition());
+  mpc.start();
+  wj::rt::WatchdogSettings wd;
+  wd.timeout = std::chrono::nanoseconds(static_cast<long>(settings.loop.watchdog_timeout_s * 1e9));
+  wj::rt::Watchdog watchdog(wd, [&loop] { loop.tripWatchdog(); });
+  wj::rt::LoopStats stats(
+      std::chrono::nanoseconds(static_cast<long>(settings.loop.period_s * 1e9)));
+
+  // The loop runs in this thread; telemetry and transitions are drained between periods in
+  // simulation (simulated time) and by a separate thread on hardware.
+  std::atomic<bool> done{false};
+  std::thread drain;
+  if (!simulated) {
+    drain = std::thread([&] {
+      while (!done.load()) {
+        recorder.drain(loop);
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      }
+    });
+    wj::rt::RtSettings rts;
+    rts.priority = settings.loop.rt_priority;
+    rts.lock_memory = settings.loop.lock_memory;
+    rts.cpu = settings.loop.cpu;
+    const wj::rt::RtSetupReport rep = wj::rt::setupRealtime(rts);
+    for (const std::string& w : rep.warnings) spdlog::warn("real-time setup: {}", w);
+    watchdog.start();
+  }
+
+  const auto wall_start = std::chrono::steady_clock::now();
+  wj::rt::PeriodicTimer timer(
+      std::chrono::nanoseconds(static_cast<long>(settings.loop.period_s * 1e9)));
+  timer.start();
+  double stop_at = scenario.duration_s;
+  while (loop.time() < stop_at) {
+    const auto t0 = std::chrono::steady_clock::now();
+    loop.step();
+    watchdog.kick();
+    const auto compute = std::chrono::steady_clock::now() - t0;
+    loop.setLastCompute(std::chrono::duration<double, std::micro>(compute).count());
+    if (simulated) {
+      backend->observe(loop, recorder);
+      recorder.drain(loop);
+    } else {
+      timer.waitNext();
+      stats.record(timer.lateness(), std::chrono::duration_cast<std::chrono::nanoseconds>(compute),
+                   timer.lateness() > timer.period());
+    }
+    // Once the robot stands (after a jump or an abort) or damps, half a second more and stop.
+    const rc::Mode m = loop.mode();
+    const bool settled =
+        (m == rc::Mode::Stand && (loop.stateMachine().jumped() ||
+                                  loop.stateMachine().abortReason() != rc::Reason::Start)) ||
+        m == rc::Mode::Damping;
+    if (settled && stop_at > loop.time() + 0.5) stop_at = loop.time() + 0.5;
+  }
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  done.store(true);
+  if (drain.joinable()) drain.join();
+  watchdog.stop();
+  mpc.stop();
+  recorder.drain(loop);
+
+  rc::RunSummary summary = recorder.summarise(loop, requester.get(), *backend, mpc.counters());
+  summary.wall_s = wall_s;
+  if (!simulated) summary.loop_stats = stats.toJson();
+  if (opt.json_out)
+    std::cout << summary.toJson().dump(2) << "\n";
+  else
+    summary.printTable(std::cout);
+  if (!opt.plot.empty()) recorder.plot(opt.plot, loop);
+  return summary.success ? 0 : 3;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"robot_client: the wheeled-legged robot's on-board control program"};
+  Options opt;
+  app.add_option("--backend", opt.backend, "sim | can")->check(CLI::IsMember({"sim", "can"}));
+  app.add_option("--config", opt.config, "robot client YAML (config/robot_client.yaml)")
+      ->required();
+  app.add_option("--planner", opt.planner, "planning service HOST:PORT (none: no jumps)");
+  app.add_option("--scenario", opt.scenario, "forward | vertical")
+      ->check(CLI::IsMember({"forward", "vertical"}));
+  app.add_flag("--via-can", opt.via_can,
+               "sim backend: drive the simulated motors through emulated MIT-mode CAN frames");
+  app.add_option("--seed", opt.seed, "sim backend: sensor-noise seed");
+  app.add_flag("!--no-noise", opt.noise, "sim backend: exact sensors");
+  app.add_option("--csv", opt.csv, "telemetry CSV file");
+  app.add_option("--plot", opt.plot, "figure (PNG, gnuplot)");
+  app.add_flag("--json", opt.json_out, "print the summary as JSON");
+  app.add_option("--can-interfaces", opt.can_interfaces,
+                 "can backend: one interface per leg, LF RF LH RH")
+      ->expected(4);
+  CLI11_PARSE(app, argc, argv);
+  try {
+    return run(opt);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "robot_client: %s\n", e.what());
+    return 2;
+  }
+}

@@ -1,0 +1,132 @@
+// bench_loop: period jitter of the robot client's 1 kHz control loop with the backend replaced
+// by a no-op (sensors replayed from a standing robot, commands dropped). The full loop body
+// runs (estimator, state machine, NMPC policy evaluation, PD and wheel law, safety, telemetry
+// ring) with the NMPC in its own free-running thread, timed by PeriodicTimer (absolute
+// deadlines). The peer, measured in the same run: the same timer with an empty body. Prints JSON.
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "nmpc/locomotion_controller.h"
+#include "robot_client/client_settings.h"
+#include "robot_client/control_loop.h"
+#include "robot_client/mpc_worker.h"
+#include "rt/loop_stats.h"
+#include "rt/periodic_timer.h"
+#include "rt/realtime.h"
+
+namespace {
+
+namespace rc = wj::robot_client;
+using Clock = std::chrono::steady_clock;
+
+// Replays one standing measurement with an advancing clock; drops the commands.
+class NoopRobot final : public wj::model::RobotInterface {
+ public:
+  explicit NoopRobot(const wj::model::SensorData& standing) : data_(standing) {}
+  double controlPeriod() const override { return 1e-3; }
+  void read(wj::model::SensorData& out) override {
+    out = data_;
+    out.t = t_;
+  }
+  void write(const wj::model::JointCommands& commands) override { last_ = commands[0].tau_ff; }
+  void advance() override { t_ += 1e-3; }
+
+ private:
+  wj::model::SensorData data_;
+  double t_ = 0.0;
+  double last_ = 0.0;
+};
+
+// A standing robot in the NMPC's nominal posture: joint angles, gravity on the IMU, and the
+// joint torques of its weight (so that the contact detector sees the wheels on the ground).
+wj::model::SensorData standingSensors(const wj::nmpc::LocomotionController& c) {
+  wj::model::SensorData s;
+  for (int leg = 0; leg < wj::nmpc::kNumLegs; ++leg)
+    for (int j = 0; j < wj::nmpc::kLegDofs; ++j)
+      s.joints[wj::nmpc::robotJointIndex(leg, j)].q =
+          c.model().nominalJoints()[wj::nmpc::kLegDofs * leg + j];
+  s.imu.accel_B = Eigen::Vector3d(0.0, 0.0, 9.81);
+  return s;
+}
+
+template <class Body>
+wj::rt::LoopStats runTimed(double seconds, Body&& body) {
+  wj::rt::PeriodicTimer timer(std::chrono::milliseconds(1));
+  wj::rt::LoopStats stats(std::chrono::milliseconds(1));
+  const long n = std::lround(seconds * 1000.0);
+  timer.start();
+  timer.waitNext();
+  for (long k = 0; k < n; ++k) {
+    const auto t0 = Clock::now();
+    body();
+    const auto compute = Clock::now() - t0;
+    timer.waitNext();
+    if (k > 0)  // the first period has no predecessor
+      stats.recordPeriod(
+          timer.lastPeriod(), std::chrono::duration_cast<std::chrono::nanoseconds>(compute),
+          timer.lateness() > std::chrono::nanoseconds(0) && compute > std::chrono::milliseconds(1));
+  }
+  return stats;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"bench_loop: control-loop period jitter with a no-op backend (JSON)"};
+  double seconds = 10.0;
+  std::string config = std::string(WJ_CONFIG_DIR_DEFAULT) + "/robot_client.yaml";
+  bool with_mpc = true;
+  app.add_option("--seconds", seconds, "length of each run [s]")->check(CLI::Range(1.0, 600.0));
+  app.add_option("--config", config, "robot client YAML");
+  app.add_flag("!--no-mpc", with_mpc, "do not run the NMPC thread beside the loop");
+  CLI11_PARSE(app, argc, argv);
+
+  const wj::model::RobotModel robot = wj::model::RobotModel::loadDefault();
+  const rc::ClientSettings settings = rc::loadClientSettings(config);
+  wj::nmpc::LocomotionController controller(robot, wj::nmpc::LocomotionSettings{});
+  NoopRobot noop(standingSensors(controller));
+  rc::MpcWorker mpc(controller, settings.loop.mpc_period_s, /*lockstep=*/false);
+  rc::ScenarioSettings scenario = settings.forward;
+  scenario.duration_s = 600.0;
+  rc::ControlLoop loop(robot, settings, scenario, noop, controller, mpc, nullptr, nullptr);
+
+  wj::rt::RtSettings rts;
+  rts.priority = settings.loop.rt_priority;
+  rts.cpu = settings.loop.cpu;
+  const wj::rt::RtSetupReport rt = wj::rt::setupRealtime(rts);
+
+  // Peer: the same timer, empty body.
+  const wj::rt::LoopStats empty = runTimed(seconds, [] {});
+
+  loop.initialise(Eigen::Vector3d(0.0, 0.0, 0.35));
+  if (with_mpc) mpc.start();
+  rc::TelemetrySample sample;
+  rc::Transition tr;
+  const wj::rt::LoopStats full = runTimed(seconds, [&] {
+    loop.step();
+    // The drain thread's work, done here cheaply so that the rings never fill.
+    while (loop.telemetry().tryPop(sample)) {
+    }
+    while (loop.transitions().tryPop(tr)) {
+    }
+  });
+  mpc.stop();
+
+  nlohmann::json j;
+  j["seconds"] = seconds;
+  j["nmpc_thread"] = with_mpc;
+  j["mpc_cycles"] = mpc.counters().cycles;
+  j["realtime"] = {
+      {"sched_fifo", rt.fifo}, {"mlockall", rt.memory_locked}, {"warnings", rt.warnings}};
+  j["jitter_definition"] = "|actual period - 1 ms| between consecutive wake-ups";
+  j["empty_loop"] = empty.toJson();
+  j["control_loop"] = full.toJson();
+  j["p99_jitter_ratio_full_over_empty"] =
+      empty.jitter().p99() > 0.0 ? full.jitter().p99() / empty.jitter().p99() : 0.0;
+  std::cout << j.dump(2) << "\n";
+  return 0;
+}

@@ -1,0 +1,107 @@
+#pragma once
+/// @file Configuration of the robot client (config/robot_client.yaml): loop timing, the jump
+/// scenarios, the abort and safety limits, and the planner connection. Read strictly: unknown
+/// or missing keys and out-of-range values are errors that name the key.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "estimator/estimator_settings.h"
+#include "planner/jump_plan.h"
+#include "sim/plan_executor.h"
+
+namespace wj::robot_client {
+
+/// Timing and real-time setup of the loops.
+struct LoopSettings {
+  double period_s = 0.001;           ///< control loop period [s] (1 kHz)
+  double mpc_period_s = 0.01;        ///< NMPC cycle [s]
+  int rt_priority = 80;              ///< SCHED_FIFO priority of the control loop (1..99)
+  bool lock_memory = true;           ///< mlockall before the loop starts
+  int cpu = -1;                      ///< CPU the loop is pinned to, -1 = no pinning
+  double watchdog_timeout_s = 0.02;  ///< loop silent this long -> damping mode [s]
+  int telemetry_decimation = 1;      ///< one telemetry sample every N periods
+};
+
+/// Limits whose violation ends in damping mode or a stop.
+struct SafetySettings {
+  double max_roll_rad = 0.7;        ///< |roll| beyond this outside a jump -> damping [rad]
+  double max_pitch_rad = 0.8;       ///< |pitch| beyond this outside a jump -> damping [rad]
+  double damping_kd = 1.5;          ///< joint damping of damping mode [Nm s/rad]
+  double brake_decel_m_s2 = 2.5;    ///< deceleration of a safe stop [m/s^2]
+  double stopped_speed_m_s = 0.05;  ///< below this the robot counts as stopped [m/s]
+};
+
+/// Contact detection from the leg torques: the ground force of a leg is estimated from its
+/// HFE and KFE torques through the planar leg Jacobian, gated by the wheel's estimated height.
+struct ContactSettings {
+  double force_threshold_n = 25.0;  ///< normal force above which a wheel is on the ground [N]
+  /// ... and only if the estimated wheel bottom is at most this far above the ground [m].
+  double max_wheel_clearance_m = 0.03;
+  /// In a jump, a wheel's rolling constraint feeds the estimator only after its contact has
+  /// lasted this long (impact and spin-up slip) [s].
+  double settle_s = 0.05;
+};
+
+/// How the robot client reaches the planning service.
+struct PlannerConnection {
+  double deadline_s = 1.5;            ///< deadline of one PlanJump call [s]
+  std::uint32_t max_evaluations = 0;  ///< DE budget sent with the request (0 = server default)
+  std::uint64_t seed = 0;             ///< DE seed sent with the request (0 = server default)
+  bool skip_verification = false;     ///< ask for the planner's plan without verification
+};
+
+/// What a scenario does. Forward: roll up to `run_up_speed_m_s`, request a plan, jump over the
+/// wall at `wall_x_m` (world), land and stop. Vertical: stand, request, jump in place.
+struct ScenarioSettings {
+  std::string name = "forward";
+  double stand_s = 1.0;            ///< standing before anything starts [s]
+  double run_up_speed_m_s = 3.0;   ///< [m/s]; 0 = jump from standing
+  double acceleration_m_s2 = 1.5;  ///< run-up acceleration [m/s^2]
+  bool has_wall = true;            ///< a wall stands in the way
+  double wall_x_m = 6.0;           ///< near face of the wall, world x [m]
+  double wall_thickness_m = 0.1;   ///< [m]
+  double wall_height_m = 0.25;     ///< [m]
+  double takeoff_to_wall_m = 1.2;  ///< CoM to the wall's near face at the start of take-off
+  /// The plan must be in hand this far before the take-off point; otherwise the robot
+  /// brakes and stops before the wall [m].
+  double decision_margin_m = 1.0;
+  double target_dx_m = 1.9;  ///< CoM displacement from take-off start to the event [m]
+  /// Base height at the event above the ground [m]; converted to the CoM height with the
+  /// current posture's CoM offset.
+  double target_base_height_m = 0.3;
+  double target_pitch_change_rad = 0.25;  ///< nose-up positive [rad]
+  planner::TargetEvent event = planner::TargetEvent::Touchdown;
+  planner::TakeoffMode mode = planner::TakeoffMode::Simultaneous;
+  double plan_timeout_s = 3.0;  ///< standing jumps: no plan by then -> no jump [s]
+  double duration_s = 12.0;     ///< end of the run [s]
+};
+
+/// Everything in config/robot_client.yaml.
+struct ClientSettings {
+  LoopSettings loop;
+  SafetySettings safety;
+  ContactSettings contact;
+  PlannerConnection planner;
+  sim::ExecutorSettings executor;  ///< take-off, flight and landing gains
+  /// The state estimator's noises and limits (the estimator's defaults; docs/estimator.md).
+  estimation::EstimatorSettings estimator;
+  ScenarioSettings forward;   ///< the "forward" scenario
+  ScenarioSettings vertical;  ///< the "vertical" scenario
+
+  /// The scenario called `name` ("forward" or "vertical"); throws std::invalid_argument.
+  const ScenarioSettings& scenario(std::string_view name) const;
+  /// Throws std::invalid_argument naming the field and its allowed range.
+  void validate() const;
+};
+
+/// Parses YAML text; `origin` names it in errors. Throws std::runtime_error on unknown or
+/// missing keys and std::invalid_argument on out-of-range values.
+ClientSettings parseClientSettings(std::string_view yaml_text,
+                                   const std::string& origin = "<text>");
+/// Reads and parses a file.
+ClientSettings loadClientSettings(const std::filesystem::path& yaml_file);
+
+}  // namespace wj::robot_client

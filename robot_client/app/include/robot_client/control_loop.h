@@ -1,0 +1,133 @@
+#pragma once
+/// @file One period of the robot client's 1 kHz control loop:
+///   read -> estimate -> evaluate policy (NMPC or jump plan) -> PD and wheel law -> safety -> write
+/// step() neither allocates, locks nor logs: telemetry and state-machine transitions leave the
+/// loop through lock-free rings that a non-real-time thread drains; the NMPC runs in its own
+/// thread (MpcWorker), plan requests in theirs (PlanRequester).
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <optional>
+
+#include "estimator/state_estimator.h"
+#include "nmpc/locomotion_controller.h"
+#include "planner/leg_kinematics.h"
+#include "robot_client/client_settings.h"
+#include "robot_client/jump_state_machine.h"
+#include "robot_client/mpc_worker.h"
+#include "robot_client/plan_requester.h"
+#include "robot_model/robot_interface.h"
+#include "rt/spsc_ring.h"
+#include "sim/plan_executor.h"
+
+namespace wj::robot_client {
+
+/// One telemetry record (trivially copyable; one per control period).
+struct TelemetrySample {
+  double t = 0.0;
+  Mode mode = Mode::Stand;
+  std::array<double, 3> p_WB{};    ///< estimated base position [m]
+  std::array<double, 3> v_WB{};    ///< estimated base velocity [m/s]
+  double roll = 0.0, pitch = 0.0;  ///< [rad]
+  double com_x = 0.0;              ///< estimated CoM x [m]
+  std::array<double, model::kNumJoints> q{}, qd{}, tau{};
+  std::array<double, model::kNumLegs> contact_force{};  ///< estimated normal force [N]
+  double compute_us = 0.0;  ///< loop body time of the previous period [µs]
+};
+
+/// Anything outside the loop that wants to know about faults (hardware backends) implements it.
+struct FaultSource {
+  virtual ~FaultSource() = default;
+  virtual bool hasFault() const = 0;
+};
+
+class ControlLoop {
+ public:
+  using TelemetryRing = rt::SpscRing<TelemetrySample, 4096>;
+  using TransitionRing = rt::SpscRing<Transition, 64>;
+
+  /// All references must outlive the loop. `requester` may be null (no planning service: the
+  /// jump is aborted at the decision point). `faults` may be null.
+  ControlLoop(const model::RobotModel& robot, const ClientSettings& settings,
+              const ScenarioSettings& scenario, model::RobotInterface& backend,
+              nmpc::LocomotionController& controller, MpcWorker& mpc, PlanRequester* requester,
+              const FaultSource* faults);
+
+  /// Reads the sensors once and initialises the estimator at the measured posture, with the
+  /// base at `p_WB` (the robot's known start position). Not real-time.
+  void initialise(const Eigen::Vector3d& p_WB);
+  /// One control period (see the file comment), including backend.advance().
+  void step();
+  /// Tells the loop how long its last body took (the runner measures it) [µs].
+  void setLastCompute(double us) { last_compute_us_ = us; }
+  /// Set by the watchdog thread.
+  void tripWatchdog() { watchdog_.store(true, std::memory_order_release); }
+
+  const JumpStateMachine& stateMachine() const { return fsm_; }
+  /// The estimator's latest state.
+  const estimation::EstimatedState& estimate() const { return estimator_.state(); }
+  /// The latest commands written (after the safety check).
+  const model::JointCommands& commands() const { return commands_; }
+  Mode mode() const { return fsm_.mode(); }
+  double time() const { return t_; }
+  TelemetryRing& telemetry() { return telemetry_; }
+  TransitionRing& transitions() { return transitions_; }
+  /// Estimated speed at the start of take-off [m/s] (NaN before).
+  double takeoffSpeed() const { return takeoff_speed_; }
+  /// Robot time of the plan request and of the plan's arrival [s] (NaN before).
+  double planRequestTime() const { return plan_request_t_; }
+  double planArrivalTime() const { return plan_arrival_t_; }
+  /// Start of take-off, robot time [s] (NaN before).
+  double takeoffTime() const { return takeoff_t_; }
+  /// Largest |applied torque| per joint over the run [Nm].
+  const std::array<double, model::kNumJoints>& maxAbsTorque() const { return max_abs_tau_; }
+
+ private:
+  void estimate();
+  void updateContacts();
+  void computeCommands(const FsmOutput& out);
+  void applySafety();
+  void postPlanRequest(bool speculative);
+  void setSpeedCommand(double v_target, double accel);
+
+  const model::RobotModel& robot_;
+  const ClientSettings& settings_;
+  const ScenarioSettings& scenario_;
+  model::RobotInterface& backend_;
+  nmpc::LocomotionController& controller_;
+  MpcWorker& mpc_;
+  PlanRequester* requester_;
+  const FaultSource* faults_;
+  estimation::StateEstimator estimator_;
+  JumpStateMachine fsm_;
+  planner::PlanarLeg leg_;
+  std::optional<sim::PlanExecutor> executor_;  // built at take-off from the requester's plan
+
+  model::SensorData sensors_;
+  model::JointCommands commands_{};
+  nmpc::State x_ = nmpc::State::Zero();
+  MpcInput mpc_input_;
+  int mpc_every_ = 10;
+  std::uint64_t k_ = 0;
+  double t_ = 0.0;
+  double yaw_ = 0.0;
+  double com_x_ = 0.0, speed_ = 0.0, roll_ = 0.0, pitch_ = 0.0;
+  Eigen::Vector3d com_offset_B_ = Eigen::Vector3d::Zero();  // CoM in the base frame
+  std::array<double, model::kNumLegs> contact_force_{};
+  std::array<bool, model::kNumLegs> contact_{};
+  std::array<int, model::kNumLegs> contact_periods_{};  // consecutive periods in contact
+  int settle_periods_ = 50;
+  bool pending_request_ = false;
+  bool prefetched_ = false;
+  double takeoff_speed_;
+  double plan_request_t_, plan_arrival_t_, takeoff_t_;
+  double last_compute_us_ = 0.0;
+  std::atomic<bool> watchdog_{false};
+  int journal_seen_ = 0;
+  std::array<double, model::kNumJoints> max_abs_tau_{};
+  TelemetryRing telemetry_;
+  TransitionRing transitions_;
+};
+
+}  // namespace wj::robot_client

@@ -1,0 +1,121 @@
+#pragma once
+/// @file The jump state machine of the robot client:
+///
+///   STAND -> ROLL -> PLAN -> TAKEOFF -> FLIGHT -> LANDING -> BRAKE -> STAND
+///                      \-> BRAKE (no plan by the decision point, infeasible plan, planner
+///                                 unreachable) -> STAND
+///   any state -> DAMPING (estimator divergence, motor fault, watchdog, attitude limit)
+///
+/// Pure logic: step() takes what the loop measured and returns what the loop must do; it
+/// neither allocates nor logs. Transitions are recorded in a fixed-size journal that a
+/// non-real-time thread drains and logs.
+
+#include <array>
+#include <cstdint>
+#include <string_view>
+
+#include "robot_client/client_settings.h"
+
+namespace wj::robot_client {
+
+enum class Mode : std::uint8_t { Stand, Roll, Plan, Takeoff, Flight, Landing, Brake, Damping };
+std::string_view toString(Mode mode);
+
+/// Why a transition happened.
+enum class Reason : std::uint8_t {
+  Start,              ///< standing time over
+  RunUpSpeedReached,  ///< speed within tolerance of the run-up speed: plan requested
+  PlanRequested,      ///< standing jump: plan requested
+  TakeoffPoint,       ///< plan in hand and the take-off point reached
+  Lifted,             ///< the executor switched to flight
+  TouchedDown,        ///< the executor switched to landing
+  Landed,             ///< landing phase over
+  NoPlanByDecisionPoint,
+  PlanInfeasible,
+  PlannerFailed,  ///< unreachable, deadline exceeded, or an error status
+  Stopped,        ///< speed below the stop threshold
+  EstimatorDiverged,
+  MotorFault,
+  Watchdog,
+  AttitudeLimit,
+  EndOfRun,
+};
+std::string_view toString(Reason reason);
+
+/// Status of the plan request as the loop sees it.
+enum class PlanStatus : std::uint8_t { None, Pending, Feasible, Infeasible, Failed };
+
+/// What the loop measured this period.
+struct FsmInput {
+  double t = 0.0;      ///< robot time [s]
+  double com_x = 0.0;  ///< estimated CoM x in W [m]
+  double speed = 0.0;  ///< estimated forward speed [m/s]
+  double roll = 0.0;   ///< [rad]
+  double pitch = 0.0;  ///< [rad]
+  PlanStatus plan = PlanStatus::None;
+  bool executor_in_flight = false;  ///< the plan executor is in its flight phase
+  bool executor_landing = false;    ///< ... in its landing phase
+  bool executor_finished = false;   ///< ... and the landing is over
+  bool estimator_diverged = false;
+  bool motor_fault = false;
+  bool watchdog_tripped = false;
+};
+
+/// What the loop must do this period.
+struct FsmOutput {
+  Mode mode = Mode::Stand;
+  bool request_plan = false;   ///< send the plan request now (once)
+  bool start_takeoff = false;  ///< start executing the plan now (once)
+  bool brake = false;          ///< set the speed command to a stop now (once)
+  bool start_roll = false;     ///< set the run-up speed command now (once)
+  double takeoff_com_x = 0.0;  ///< CoM x at which the take-off starts [m]
+};
+
+/// One journal entry.
+struct Transition {
+  double t = 0.0;
+  Mode from = Mode::Stand;
+  Mode to = Mode::Stand;
+  Reason reason = Reason::Start;
+  double com_x = 0.0;
+  double speed = 0.0;
+};
+
+class JumpStateMachine {
+ public:
+  static constexpr int kJournalSize = 64;
+
+  JumpStateMachine(const ScenarioSettings& scenario, const SafetySettings& safety);
+
+  /// One control period. No allocation, no logging.
+  FsmOutput step(const FsmInput& in);
+
+  Mode mode() const { return mode_; }
+  /// Take-off point: CoM x at which the take-off starts (forward scenario) [m].
+  double takeoffComX() const { return takeoff_com_x_; }
+  /// Decision point: the plan must be in hand before the CoM passes it [m].
+  double decisionComX() const { return takeoff_com_x_ - scenario_.decision_margin_m; }
+  /// Whether the robot jumped (take-off started) during the run.
+  bool jumped() const { return jumped_; }
+  /// The abort that ended the jump attempt, or Reason::Start if none.
+  Reason abortReason() const { return abort_reason_; }
+
+  /// Transitions recorded so far (ring of kJournalSize; `count()` keeps counting).
+  int journalCount() const { return journal_count_; }
+  const Transition& journal(int i) const { return journal_[i % kJournalSize]; }
+
+ private:
+  void enter(Mode to, Reason why, const FsmInput& in);
+
+  ScenarioSettings scenario_;
+  SafetySettings safety_;
+  Mode mode_ = Mode::Stand;
+  double mode_since_ = 0.0;
+  double takeoff_com_x_ = 0.0;
+  bool jumped_ = false;
+  Reason abort_reason_ = Reason::Start;
+  std::array<Transition, kJournalSize> journal_{};
+  int journal_count_ = 0;
+};
+
+}  // namespace wj::robot_client

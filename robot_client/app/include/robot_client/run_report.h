@@ -1,0 +1,105 @@
+#pragma once
+/// @file What a robot_client run leaves behind: the telemetry CSV (drained from the loop's
+/// lock-free rings outside the loop), the logged state-machine transitions, the ground-truth
+/// metrics of a simulated run, the summary table / JSON and the figures.
+
+#include <array>
+#include <fstream>
+#include <limits>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "robot_client/client_settings.h"
+#include "robot_client/control_loop.h"
+#include "robot_client/mpc_worker.h"
+#include "robot_model/robot_model.h"
+
+namespace wj::sim {
+struct GroundTruth;
+}
+
+namespace wj::robot_client {
+
+class Backend;
+class PlanRequester;
+
+/// Ground-truth metrics of a simulated run.
+struct TruthMetrics {
+  bool available = false;
+  double apex_base_z = 0.0;  ///< highest base height between take-off and landing
+  double apex_com_z = 0.0;   ///< highest CoM height in that interval
+  double min_clearance = std::numeric_limits<double>::infinity();   ///< to the wall [m]
+  double takeoff_speed = std::numeric_limits<double>::quiet_NaN();  ///< CoM vx at take-off
+  double touchdown_dx = std::numeric_limits<double>::quiet_NaN();   ///< CoM x travel in the jump
+  double takeoff_com_x = std::numeric_limits<double>::quiet_NaN();
+  bool body_hit_ground = false;      ///< base or a leg link touched the terrain
+  double final_x = 0.0;              ///< base x at the end [m]
+  double final_front_wheel_x = 0.0;  ///< front wheels' foremost x at the end [m]
+  double final_pitch = 0.0, final_roll = 0.0, final_speed = 0.0, final_height = 0.0;
+  double est_pos_rms = 0.0, est_vel_rms = 0.0;  ///< estimator error vs truth (RMS)
+  double est_samples = 0.0;
+};
+
+struct RunSummary {
+  std::string scenario, backend;
+  bool jumped = false;
+  std::string abort_reason;  ///< "" if none
+  std::string final_mode;
+  double takeoff_speed_est = std::numeric_limits<double>::quiet_NaN();
+  double plan_latency_ms = std::numeric_limits<double>::quiet_NaN();
+  std::string plan_source, plan_verification, plan_summary;
+  double plan_target_height = std::numeric_limits<double>::quiet_NaN();  ///< requested CoM z
+  double planned_apex_base_z = std::numeric_limits<double>::quiet_NaN();
+  double planned_clearance = std::numeric_limits<double>::quiet_NaN();
+  double planned_touchdown_dx = std::numeric_limits<double>::quiet_NaN();
+  TruthMetrics truth;
+  std::array<double, model::kJointsPerLeg> max_torque{};  ///< per joint kind [Nm]
+  std::array<double, model::kJointsPerLeg> torque_limit{};
+  std::vector<Transition> transitions;
+  MpcCounters mpc;
+  double sim_time_s = 0.0;
+  double wall_s = 0.0;
+  nlohmann::json loop_stats;  ///< hardware runs: jitter and compute time
+  std::string can_report;
+  bool success = false;
+  std::string verdict;
+
+  nlohmann::json toJson() const;
+  void printTable(std::ostream& out) const;
+};
+
+class RunRecorder {
+ public:
+  /// Writes telemetry to `csv_path` ("" = no file).
+  RunRecorder(const model::RobotModel& robot, const ClientSettings& settings,
+              const ScenarioSettings& scenario, const std::string& csv_path);
+
+  /// Drains the loop's telemetry and transition rings (logs each transition). Not real-time.
+  void drain(ControlLoop& loop);
+  /// Simulation: the ground truth right after a period of `loop`.
+  void onTruth(const sim::GroundTruth& gt, const ControlLoop& loop);
+  /// The summary of the run.
+  RunSummary summarise(const ControlLoop& loop, const PlanRequester* requester,
+                       const Backend& backend, const MpcCounters& mpc);
+  /// Figures (gnuplot): speed, heights and modes; left-front joint torques with limits.
+  void plot(const std::string& png, const ControlLoop& loop) const;
+
+ private:
+  const model::RobotModel& robot_;
+  const ClientSettings& settings_;
+  const ScenarioSettings& scenario_;
+  std::string csv_path_;
+  std::ofstream csv_;
+  std::vector<Transition> transitions_;
+  TruthMetrics truth_;
+  bool have_truth_row_ = false;
+  std::array<double, 8> truth_row_{};  // t, x, z, vx, pitch, com_x, com_z, clearance
+  double takeoff_truth_x_ = std::numeric_limits<double>::quiet_NaN();
+  double pos_err2_ = 0.0, vel_err2_ = 0.0;
+  long err_n_ = 0;
+};
+
+}  // namespace wj::robot_client

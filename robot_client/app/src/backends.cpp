@@ -1,0 +1,130 @@
+#include "robot_client/backends.h"
+
+#include <sstream>
+#include <stdexcept>
+
+#include "can/can_bus.h"
+#include "can/can_robot.h"
+#include "can/can_settings.h"
+#include "can/sim_via_can.h"
+#include "nmpc/types.h"
+#include "robot_client/control_loop.h"
+#include "robot_client/run_report.h"
+#include "sim/sim_robot.h"
+#include "sim/verifier.h"
+
+namespace wj::robot_client {
+
+namespace {
+
+sim::SimSettings simSettings(const ScenarioSettings& scenario, std::uint64_t seed, bool noise) {
+  sim::SimSettings s;
+  s.noise.enabled = noise;
+  s.noise.seed = seed;
+  s.terrain = scenario.has_wall ? sim::Terrain::wall(scenario.wall_x_m,
+                                                     scenario.wall_x_m + scenario.wall_thickness_m,
+                                                     scenario.wall_height_m)
+                                : sim::Terrain::flat();
+  return s;
+}
+
+// Standing still at the origin in the NMPC's nominal posture, wheels on the ground.
+sim::RobotPlacement standingPlacement(const model::RobotModel& robot,
+                                      const nmpc::LocomotionController& c,
+                                      const sim::Terrain& terrain) {
+  sim::InitialState init;
+  for (int leg = 0; leg < nmpc::kNumLegs; ++leg)
+    for (int j = 0; j < nmpc::kLegDofs; ++j)
+      init.q[nmpc::robotJointIndex(leg, j)] = c.model().nominalJoints()[nmpc::kLegDofs * leg + j];
+  init.com.z = c.model().settings().nominal_base_height_m + c.model().comOffset().z() - 1e-3;
+  return sim::calcPlacement(robot, init, terrain);
+}
+
+class SimBackend final : public Backend {
+ public:
+  SimBackend(const model::RobotModel& robot, const nmpc::LocomotionController& controller,
+             const ScenarioSettings& scenario, std::uint64_t seed, bool noise)
+      : sim_(robot, simSettings(scenario, seed, noise)) {
+    placement_ = standingPlacement(robot, controller, sim_.settings().terrain);
+    sim_.reset(placement_);
+  }
+  model::RobotInterface& robot() override { return sim_; }
+  const FaultSource* faults() const override { return nullptr; }
+  Eigen::Vector3d startPosition() const override { return placement_.X_WB.translation(); }
+  void observe(const ControlLoop& loop, RunRecorder& recorder) override {
+    sim_.calcGroundTruth(gt_, false);
+    recorder.onTruth(gt_, loop);
+  }
+  std::string name() const override { return "sim"; }
+
+ private:
+  sim::SimRobot sim_;
+  sim::RobotPlacement placement_;
+  sim::GroundTruth gt_;
+};
+
+class SimViaCanBackend final : public Backend, public FaultSource {
+ public:
+  SimViaCanBackend(const model::RobotModel& robot, const nmpc::LocomotionController& controller,
+                   const ScenarioSettings& scenario, std::uint64_t seed, bool noise)
+      : robot_(robot, simSettings(scenario, seed, noise),
+               can::loadCanRobotSettings(can::defaultCanConfigFile())) {
+    placement_ = standingPlacement(robot, controller, robot_.sim().settings().terrain);
+    robot_.reset(placement_);
+  }
+  model::RobotInterface& robot() override { return robot_; }
+  const FaultSource* faults() const override { return this; }
+  bool hasFault() const override { return robot_via().canRobot().hasFault(); }
+  Eigen::Vector3d startPosition() const override { return placement_.X_WB.translation(); }
+  void observe(const ControlLoop& loop, RunRecorder& recorder) override {
+    robot_.sim().calcGroundTruth(gt_, false);
+    recorder.onTruth(gt_, loop);
+  }
+  std::string name() const override { return "sim-via-can"; }
+  std::string canReport() const override {
+    std::ostringstream s;
+    std::uint64_t sent = 0, received = 0, dropped = 0;
+    for (int leg = 0; leg < model::kNumLegs; ++leg) {
+      const can::CanBusStats st = robot_via().bus(leg).robotSide().stats();
+      sent += st.sent;
+      received += st.received;
+      dropped += st.dropped;
+    }
+    s << "frames sent " << sent << ", received " << received << ", dropped " << dropped
+      << ", motor fault " << (robot_via().canRobot().hasFault() ? "yes" : "no");
+    return s.str();
+  }
+
+ private:
+  can::SimViaCan& robot_via() const { return robot_; }
+  mutable can::SimViaCan
+      robot_;  // its CAN side reports faults and counters through non-const calls
+  sim::RobotPlacement placement_;
+  sim::GroundTruth gt_;
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> makeSimBackend(const model::RobotModel& robot,
+                                        const nmpc::LocomotionController& controller,
+                                        const ScenarioSettings& scenario, std::uint64_t seed,
+                                        bool noise, bool via_can) {
+  if (via_can) return std::make_unique<SimViaCanBackend>(robot, controller, scenario, seed, noise);
+  return std::make_unique<SimBackend>(robot, controller, scenario, seed, noise);
+}
+
+std::unique_ptr<Backend> makeCanBackend(const model::RobotModel& robot,
+                                        const std::vector<std::string>& interfaces) {
+  (void)robot;
+  if (interfaces.size() != static_cast<std::size_t>(model::kNumLegs))
+    throw std::invalid_argument("--can-interfaces needs 4 interfaces (LF RF LH RH)");
+  // Opening the buses first reports a missing SocketCAN (no PF_CAN) or interface clearly.
+  std::vector<std::unique_ptr<can::SocketCanBus>> buses;
+  for (const std::string& name : interfaces)
+    buses.push_back(std::make_unique<can::SocketCanBus>(name));
+  throw std::runtime_error(
+      "the CAN backend has no hardware IMU driver yet (can::ImuSource): the buses open, but the "
+      "loop cannot run without an IMU");
+}
+
+}  // namespace wj::robot_client

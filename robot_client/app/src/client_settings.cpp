@@ -1,0 +1,211 @@
+#include "robot_client/client_settings.h"
+
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "robot_model/strict_yaml.h"
+
+namespace wj::robot_client {
+
+namespace {
+
+void require(bool ok, const std::string& field, const std::string& range, double value) {
+  if (!ok || !std::isfinite(value)) {
+    std::ostringstream m;
+    m << "robot client settings: " << field << " must be " << range << ", got " << value;
+    throw std::invalid_argument(m.str());
+  }
+}
+
+void inRange(double v, double lo, double hi, const std::string& field) {
+  std::ostringstream range;
+  range << "in [" << lo << ", " << hi << "]";
+  require(v >= lo && v <= hi, field, range.str(), v);
+}
+
+void validateScenario(const ScenarioSettings& s, const std::string& p) {
+  inRange(s.stand_s, 0.0, 60.0, p + "stand_s");
+  inRange(s.run_up_speed_m_s, 0.0, 5.0, p + "run_up_speed_m_s");
+  inRange(s.acceleration_m_s2, 0.1, 5.0, p + "acceleration_m_s2");
+  inRange(s.wall_x_m, 0.5, 100.0, p + "wall.x_m");
+  inRange(s.wall_thickness_m, 0.01, 2.0, p + "wall.thickness_m");
+  inRange(s.wall_height_m, 0.01, 1.0, p + "wall.height_m");
+  inRange(s.takeoff_to_wall_m, 0.3, 3.0, p + "takeoff_to_wall_m");
+  inRange(s.decision_margin_m, 0.0, 10.0, p + "decision_margin_m");
+  inRange(s.target_dx_m, -3.0, 5.0, p + "target.dx_m");
+  inRange(s.target_base_height_m, 0.1, 1.5, p + "target.base_height_m");
+  inRange(s.target_pitch_change_rad, -7.0, 7.0, p + "target.pitch_change_rad");
+  inRange(s.plan_timeout_s, 0.05, 60.0, p + "plan_timeout_s");
+  inRange(s.duration_s, 1.0, 600.0, p + "duration_s");
+  if (s.has_wall && s.run_up_speed_m_s > 0.0) {
+    // The run-up must fit before the decision point.
+    const double run_up = s.run_up_speed_m_s * s.run_up_speed_m_s / (2.0 * s.acceleration_m_s2);
+    const double room = s.wall_x_m - s.takeoff_to_wall_m - s.decision_margin_m;
+    require(room > run_up, p + "wall.x_m",
+            "beyond the run-up distance + takeoff_to_wall_m + decision_margin_m (" +
+                std::to_string(run_up + s.takeoff_to_wall_m + s.decision_margin_m) + " m)",
+            s.wall_x_m);
+  }
+}
+
+ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
+  ScenarioSettings s;
+  s.name = name;
+  s.stand_s = m.number("stand_s");
+  s.run_up_speed_m_s = m.number("run_up_speed_m_s");
+  s.acceleration_m_s2 = m.number("acceleration_m_s2");
+  StrictYamlMap wall = m.map("wall");
+  s.has_wall = wall.flag("enabled");
+  s.wall_x_m = wall.number("x_m");
+  s.wall_thickness_m = wall.number("thickness_m");
+  s.wall_height_m = wall.number("height_m");
+  wall.finish();
+  s.takeoff_to_wall_m = m.number("takeoff_to_wall_m");
+  s.decision_margin_m = m.number("decision_margin_m");
+  StrictYamlMap target = m.map("target");
+  s.target_dx_m = target.number("dx_m");
+  s.target_base_height_m = target.number("base_height_m");
+  s.target_pitch_change_rad = target.number("pitch_change_rad");
+  const std::string event = target.text("event");
+  if (event == "apex")
+    s.event = planner::TargetEvent::Apex;
+  else if (event == "touchdown")
+    s.event = planner::TargetEvent::Touchdown;
+  else
+    target.fail("key '" + name + ".target.event': '" + event + "' is not one of apex, touchdown");
+  const std::string mode = target.text("takeoff_mode");
+  if (mode == "simultaneous")
+    s.mode = planner::TakeoffMode::Simultaneous;
+  else if (mode == "two_step")
+    s.mode = planner::TakeoffMode::TwoStep;
+  else
+    target.fail("key '" + name + ".target.takeoff_mode': '" + mode +
+                "' is not one of simultaneous, two_step");
+  target.finish();
+  s.plan_timeout_s = m.number("plan_timeout_s");
+  s.duration_s = m.number("duration_s");
+  m.finish();
+  return s;
+}
+
+sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
+  sim::ExecutorSettings e;
+  e.takeoff_kp = m.number("takeoff_kp");
+  e.takeoff_kd = m.number("takeoff_kd");
+  e.wheel_kd = m.number("wheel_kd");
+  e.flight_wheel_kd = m.number("flight_wheel_kd");
+  e.flight_kp = m.number("flight_kp");
+  e.flight_kd = m.number("flight_kd");
+  e.flight_blend_s = m.number("flight_blend_s");
+  e.joint_limit_margin_rad = m.number("joint_limit_margin_rad");
+  e.landing_kp = m.number("landing_kp");
+  e.landing_kd = m.number("landing_kd");
+  e.landing_gravity_feedforward = m.flag("landing_gravity_feedforward");
+  e.landing_wheel_decel_m_s2 = m.number("landing_wheel_decel_m_s2");
+  e.landing_duration_s = m.number("landing_duration_s");
+  e.airborne_debounce_s = m.number("airborne_debounce_s");
+  e.max_flight_overrun_s = m.number("max_flight_overrun_s");
+  m.finish();
+  return e;
+}
+
+}  // namespace
+
+const ScenarioSettings& ClientSettings::scenario(std::string_view name) const {
+  if (name == "forward") return forward;
+  if (name == "vertical") return vertical;
+  throw std::invalid_argument("scenario '" + std::string(name) +
+                              "' is not one of forward, vertical");
+}
+
+void ClientSettings::validate() const {
+  inRange(loop.period_s, 1e-4, 0.01, "loop.period_s");
+  inRange(loop.mpc_period_s, loop.period_s, 0.1, "loop.mpc_period_s");
+  inRange(loop.rt_priority, 1, 99, "loop.rt_priority");
+  inRange(loop.cpu, -1, 1023, "loop.cpu");
+  inRange(loop.watchdog_timeout_s, 2.0 * loop.period_s, 1.0, "loop.watchdog_timeout_s");
+  inRange(loop.telemetry_decimation, 1, 1000, "loop.telemetry_decimation");
+  inRange(safety.max_roll_rad, 0.05, 1.5, "safety.max_roll_rad");
+  inRange(safety.max_pitch_rad, 0.05, 1.5, "safety.max_pitch_rad");
+  inRange(safety.damping_kd, 0.0, 20.0, "safety.damping_kd");
+  inRange(safety.brake_decel_m_s2, 0.2, 8.0, "safety.brake_decel_m_s2");
+  inRange(safety.stopped_speed_m_s, 0.001, 1.0, "safety.stopped_speed_m_s");
+  inRange(contact.force_threshold_n, 1.0, 500.0, "contact.force_threshold_n");
+  inRange(contact.max_wheel_clearance_m, 0.001, 0.2, "contact.max_wheel_clearance_m");
+  inRange(contact.settle_s, 0.0, 1.0, "contact.settle_s");
+  inRange(planner.deadline_s, 0.01, 60.0, "planner.deadline_s");
+  inRange(static_cast<double>(planner.max_evaluations), 0.0, 1e7, "planner.max_evaluations");
+  executor.validate();
+  validateScenario(forward, "forward.");
+  validateScenario(vertical, "vertical.");
+}
+
+ClientSettings parseClientSettings(std::string_view yaml_text, const std::string& origin) {
+  YAML::Node root_node;
+  try {
+    root_node = YAML::Load(std::string(yaml_text));
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error("robot client settings " + origin +
+                             ": cannot parse YAML: " + e.what());
+  }
+  ClientSettings s;
+  StrictYamlMap root(root_node, "", "robot client settings " + origin);
+  {
+    StrictYamlMap m = root.map("loop");
+    s.loop.period_s = m.number("period_s");
+    s.loop.mpc_period_s = m.number("mpc_period_s");
+    s.loop.rt_priority = m.integer("rt_priority");
+    s.loop.lock_memory = m.flag("lock_memory");
+    s.loop.cpu = m.integer("cpu");
+    s.loop.watchdog_timeout_s = m.number("watchdog_timeout_s");
+    s.loop.telemetry_decimation = m.integer("telemetry_decimation");
+    m.finish();
+  }
+  {
+    StrictYamlMap m = root.map("safety");
+    s.safety.max_roll_rad = m.number("max_roll_rad");
+    s.safety.max_pitch_rad = m.number("max_pitch_rad");
+    s.safety.damping_kd = m.number("damping_kd");
+    s.safety.brake_decel_m_s2 = m.number("brake_decel_m_s2");
+    s.safety.stopped_speed_m_s = m.number("stopped_speed_m_s");
+    m.finish();
+  }
+  {
+    StrictYamlMap m = root.map("contact");
+    s.contact.force_threshold_n = m.number("force_threshold_n");
+    s.contact.max_wheel_clearance_m = m.number("max_wheel_clearance_m");
+    s.contact.settle_s = m.number("settle_s");
+    m.finish();
+  }
+  {
+    StrictYamlMap m = root.map("planner");
+    s.planner.deadline_s = m.number("deadline_s");
+    s.planner.max_evaluations = static_cast<std::uint32_t>(m.unsignedInt("max_evaluations"));
+    s.planner.seed = m.unsignedInt("seed");
+    s.planner.skip_verification = m.flag("skip_verification");
+    m.finish();
+  }
+  s.executor = parseExecutor(root.map("executor"));
+  {
+    StrictYamlMap m = root.map("scenarios");
+    s.forward = parseScenario(m.map("forward"), "forward");
+    s.vertical = parseScenario(m.map("vertical"), "vertical");
+    m.finish();
+  }
+  root.finish();
+  s.validate();
+  return s;
+}
+
+ClientSettings loadClientSettings(const std::filesystem::path& yaml_file) {
+  std::ifstream in(yaml_file);
+  if (!in) throw std::runtime_error("cannot read robot client settings " + yaml_file.string());
+  std::stringstream text;
+  text << in.rdbuf();
+  return parseClientSettings(text.str(), yaml_file.string());
+}
+
+}  // namespace wj::robot_client

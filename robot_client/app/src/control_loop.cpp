@@ -1,0 +1,286 @@
+#include "robot_client/control_loop.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace wj::robot_client {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+bool isWheel(int joint) {
+  return joint % model::kJointsPerLeg == static_cast<int>(model::JointKind::Wheel);
+}
+
+// Roll and pitch (ZYX Euler) of R_WB; pitch positive nose-down about +y as in the URDF.
+void rollPitch(const Eigen::Quaterniond& q, double& roll, double& pitch) {
+  const Eigen::Matrix3d R = q.toRotationMatrix();
+  pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+  roll = std::atan2(R(2, 1), R(2, 2));
+}
+
+}  // namespace
+
+ControlLoop::ControlLoop(const model::RobotModel& robot, const ClientSettings& settings,
+                         const ScenarioSettings& scenario, model::RobotInterface& backend,
+                         nmpc::LocomotionController& controller, MpcWorker& mpc,
+                         PlanRequester* requester, const FaultSource* faults)
+    : robot_(robot),
+      settings_(settings),
+      scenario_(scenario),
+      backend_(backend),
+      controller_(controller),
+      mpc_(mpc),
+      requester_(requester),
+      faults_(faults),
+      estimator_(robot, settings.estimator),
+      fsm_(scenario, settings.safety),
+      leg_{robot.legGeometry(model::Leg::LF).thigh_length,
+           robot.legGeometry(model::Leg::LF).shank_length},
+      takeoff_speed_(kNaN),
+      plan_request_t_(kNaN),
+      plan_arrival_t_(kNaN),
+      takeoff_t_(kNaN) {
+  settle_periods_ =
+      static_cast<int>(std::lround(settings.contact.settle_s / backend.controlPeriod()));
+  mpc_every_ = std::max(
+      1, static_cast<int>(std::lround(settings.loop.mpc_period_s / backend.controlPeriod())));
+}
+
+void ControlLoop::initialise(const Eigen::Vector3d& p_WB) {
+  backend_.read(sensors_);
+  Eigen::Matrix<double, model::kNumJoints, 1> q;
+  for (int j = 0; j < model::kNumJoints; ++j) q[j] = sensors_.joints[j].q;
+  com_offset_B_ = robot_.calcCompositeInertia(q).com;
+  estimator_.reset(p_WB, Eigen::Vector3d::Zero());
+  t_ = sensors_.t;
+  k_ = 0;
+  mpc_input_ = MpcInput{};
+  mpc_input_.command.t_start_s = t_;
+  ++mpc_input_.command_version;
+}
+
+void ControlLoop::setSpeedCommand(double v_target, double accel) {
+  nmpc::SpeedCommand& c = mpc_input_.command;
+  c.t_start_s = t_;
+  c.v_start_m_s = speed_;
+  c.v_target_m_s = v_target;
+  c.acceleration_m_s2 = accel;
+  c.yaw_rad = yaw_;
+  ++mpc_input_.command_version;
+}
+
+void ControlLoop::updateContacts() {
+  for (int leg = 0; leg < model::kNumLegs; ++leg) {
+    const auto l = static_cast<model::Leg>(leg);
+    const Eigen::Vector2d q(sensors_.joints[model::jointIndex(l, model::JointKind::HFE)].q,
+                            sensors_.joints[model::jointIndex(l, model::JointKind::KFE)].q);
+    const Eigen::Vector2d tau(sensors_.joints[model::jointIndex(l, model::JointKind::HFE)].tau,
+                              sensors_.joints[model::jointIndex(l, model::JointKind::KFE)].tau);
+    // Static balance of the leg: tau + J^T f = 0 for the force f of the ground on the wheel
+    // (base x-z plane); its component along the base's up axis, rotated by the pitch, is the
+    // normal force. A near-singular (straight) leg reports no force.
+    const Eigen::Matrix2d J = leg_.jacobian(q);
+    const double det = J.determinant();
+    double fz = 0.0;
+    if (std::abs(det) > 1e-4) {
+      const Eigen::Vector2d f = -J.transpose().inverse() * tau;
+      fz = f.y() * std::cos(pitch_) - f.x() * std::sin(pitch_);
+    }
+    contact_force_[leg] = fz;
+    // The torque-based force also reads the legs' own inertia (a swing in flight looks like a
+    // load), so a wheel counts as touching only if it is also near the ground by the
+    // estimator's state (its flight prediction is exact to millimetres, docs/estimator.md).
+    Eigen::Vector3d p_BW, v_rel, axis, w_rel;
+    estimator_.calcWheelKinematics(l, sensors_.joints, p_BW, v_rel, axis, w_rel);
+    const estimation::EstimatedState& s = estimator_.state();
+    const double clearance =
+        (s.p_WB + s.q_WB * p_BW).z() - robot_.wheelRadius() - estimator_.groundHeight();
+    contact_[leg] = fz > settings_.contact.force_threshold_n &&
+                    clearance < settings_.contact.max_wheel_clearance_m;
+    contact_periods_[leg] = contact_[leg] ? contact_periods_[leg] + 1 : 0;
+  }
+}
+
+void ControlLoop::estimate() {
+  // Planned contacts while the NMPC drives (all four wheels roll); detected ones in a jump.
+  const Mode m = fsm_.mode();
+  const bool jumping = m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing;
+  // A wheel that has just touched down slips until its spin matches the ground (impact, a
+  // spin kept from take-off): its rolling constraint joins the filter only once the contact
+  // has lasted settle_s; until then the IMU carries the estimate.
+  std::array<bool, model::kNumLegs> contact{};
+  for (int leg = 0; leg < model::kNumLegs; ++leg)
+    contact[leg] = !jumping || contact_periods_[leg] >= settle_periods_;
+  estimator_.update(sensors_, contact, backend_.controlPeriod());
+  const estimation::EstimatedState& s = estimator_.state();
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+  X_WB.linear() = s.q_WB.toRotationMatrix();
+  X_WB.translation() = s.p_WB;
+  Eigen::Matrix<double, model::kNumJoints, 1> q;
+  for (int j = 0; j < model::kNumJoints; ++j) q[j] = sensors_.joints[j].q;
+  x_ = controller_.model().calcStateFromBase(X_WB, s.v_WB, s.omega_W, q, yaw_);
+  yaw_ = x_[nmpc::state_index::kTheta + 2];
+  rollPitch(s.q_WB, roll_, pitch_);
+  const Eigen::Vector3d heading(std::cos(yaw_), std::sin(yaw_), 0.0);
+  speed_ = s.v_WB.dot(heading);
+  com_x_ = (s.p_WB + X_WB.linear() * com_offset_B_).x();
+}
+
+void ControlLoop::postPlanRequest(bool speculative) {
+  if (requester_ == nullptr) {
+    pending_request_ = false;
+    return;
+  }
+  const estimation::EstimatedState& s = estimator_.state();
+  PlanRequestSnapshot r;
+  r.t = t_;
+  r.p_WB = s.p_WB;
+  r.q_WB = s.q_WB;
+  r.v_WB = s.v_WB;
+  r.omega_B = s.q_WB.conjugate() * s.omega_W;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    r.q[j] = sensors_.joints[j].q;
+    r.qd[j] = sensors_.joints[j].qd;
+  }
+  r.target_dx_m = scenario_.target_dx_m;
+  r.target_height_m = scenario_.target_base_height_m + com_offset_B_.z();
+  r.target_pitch_change_rad = scenario_.target_pitch_change_rad;
+  r.event = scenario_.event;
+  r.mode = scenario_.mode;
+  r.has_obstacle = scenario_.has_wall;
+  if (scenario_.has_wall) {
+    // In J: the origin lies below the CoM at the start of take-off, the take-off point.
+    r.obstacle_x_min_m = scenario_.wall_x_m - fsm_.takeoffComX();
+    r.obstacle_x_max_m = r.obstacle_x_min_m + scenario_.wall_thickness_m;
+    r.obstacle_height_m = scenario_.wall_height_m;
+  }
+  r.speculative = speculative;
+  if (requester_->post(r)) {
+    pending_request_ = false;
+    plan_request_t_ = t_;
+  }
+}
+
+void ControlLoop::computeCommands(const FsmOutput& out) {
+  const Mode m = out.mode;
+  if (m == Mode::Damping) {
+    for (int j = 0; j < model::kNumJoints; ++j)
+      commands_[j] = {sensors_.joints[j].q, 0.0, 0.0, settings_.safety.damping_kd, 0.0};
+    return;
+  }
+  if (m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing) {
+    sim::PlanExecutor* ex = requester_ != nullptr ? requester_->executor() : nullptr;
+    bool any_contact = false;
+    for (bool c : contact_) any_contact = any_contact || c;
+    if (ex != nullptr) ex->update(t_ - takeoff_t_, sensors_, any_contact, commands_);
+    return;
+  }
+  // NMPC modes: the MPC thread gets the state every MPC period; the loop evaluates the
+  // latest policy every period.
+  mpc_input_.active = true;
+  if (k_ % static_cast<std::uint64_t>(mpc_every_) == 0) {
+    mpc_input_.t = t_;
+    mpc_input_.x = x_;
+    ++mpc_input_.sequence;
+    mpc_.post(mpc_input_);
+  }
+  controller_.calcCommands(t_, x_, sensors_, commands_);
+}
+
+void ControlLoop::applySafety() {
+  bool finite = true;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    model::JointCommand& c = commands_[j];
+    finite = finite && std::isfinite(c.q_des) && std::isfinite(c.qd_des) && std::isfinite(c.kp) &&
+             std::isfinite(c.kd) && std::isfinite(c.tau_ff);
+    const model::JointSpec& spec = robot_.joints()[j];
+    if (!isWheel(j)) c.q_des = std::clamp(c.q_des, spec.lower_rad, spec.upper_rad);
+    const double peak = spec.actuator.peak_torque_nm;
+    c.tau_ff = std::clamp(c.tau_ff, -peak, peak);
+  }
+  if (!finite)
+    for (int j = 0; j < model::kNumJoints; ++j)
+      commands_[j] = {sensors_.joints[j].q, 0.0, 0.0, settings_.safety.damping_kd, 0.0};
+}
+
+void ControlLoop::step() {
+  backend_.read(sensors_);
+  t_ = sensors_.t;
+  updateContacts();
+  estimate();
+
+  FsmInput in;
+  in.t = t_;
+  in.com_x = com_x_;
+  in.speed = speed_;
+  in.roll = roll_;
+  in.pitch = pitch_;
+  if (requester_ != nullptr)
+    in.plan = requester_->status();
+  else
+    in.plan = fsm_.mode() == Mode::Plan ? PlanStatus::Failed : PlanStatus::None;
+  if (in.plan == PlanStatus::Pending && pending_request_) in.plan = PlanStatus::Pending;
+  const sim::PlanExecutor* ex = requester_ != nullptr ? requester_->executor() : nullptr;
+  const bool executing =
+      fsm_.mode() == Mode::Takeoff || fsm_.mode() == Mode::Flight || fsm_.mode() == Mode::Landing;
+  if (executing && ex != nullptr) {
+    in.executor_in_flight = ex->phase() == sim::JumpPhase::Flight;
+    in.executor_landing = ex->phase() == sim::JumpPhase::Landing;
+    in.executor_finished = ex->finished(t_ - takeoff_t_);
+  }
+  in.estimator_diverged = estimator_.diverged();
+  in.motor_fault = faults_ != nullptr && faults_->hasFault();
+  in.watchdog_tripped = watchdog_.load(std::memory_order_acquire);
+  const Mode before = fsm_.mode();
+  const FsmOutput out = fsm_.step(in);
+
+  if (before == Mode::Plan && out.mode != Mode::Plan && in.plan != PlanStatus::Pending &&
+      in.plan != PlanStatus::None)
+    plan_arrival_t_ = t_;
+  if (out.start_roll) setSpeedCommand(scenario_.run_up_speed_m_s, scenario_.acceleration_m_s2);
+  if (out.request_plan) pending_request_ = true;
+  if (pending_request_) postPlanRequest(false);
+  if (out.brake) setSpeedCommand(0.0, settings_.safety.brake_decel_m_s2);
+  if (out.start_takeoff) {
+    takeoff_t_ = t_;
+    takeoff_speed_ = speed_;
+    if (std::isnan(plan_arrival_t_)) plan_arrival_t_ = t_;
+    mpc_input_.active = false;
+    mpc_.post(mpc_input_);  // pauses the NMPC for the jump
+  }
+  computeCommands(out);
+  applySafety();
+  backend_.write(commands_);
+  backend_.advance();
+
+  for (int j = 0; j < model::kNumJoints; ++j)
+    max_abs_tau_[j] = std::max(max_abs_tau_[j], std::abs(sensors_.joints[j].tau));
+  while (journal_seen_ < fsm_.journalCount()) transitions_.tryPush(fsm_.journal(journal_seen_++));
+  if (k_ % static_cast<std::uint64_t>(settings_.loop.telemetry_decimation) == 0) {
+    TelemetrySample s;
+    s.t = t_;
+    s.mode = out.mode;
+    const estimation::EstimatedState& e = estimator_.state();
+    for (int i = 0; i < 3; ++i) {
+      s.p_WB[i] = e.p_WB[i];
+      s.v_WB[i] = e.v_WB[i];
+    }
+    s.roll = roll_;
+    s.pitch = pitch_;
+    s.com_x = com_x_;
+    for (int j = 0; j < model::kNumJoints; ++j) {
+      s.q[j] = sensors_.joints[j].q;
+      s.qd[j] = sensors_.joints[j].qd;
+      s.tau[j] = sensors_.joints[j].tau;
+    }
+    s.contact_force = contact_force_;
+    s.compute_us = last_compute_us_;
+    telemetry_.tryPush(s);
+  }
+  ++k_;
+}
+
+}  // namespace wj::robot_client

@@ -1,0 +1,257 @@
+#include "robot_client/plan_requester.h"
+
+#include <cmath>
+#include <future>
+#include <sstream>
+
+#include "planner_client/planner_client.h"
+#include "wheeljump/planner/v1/jump_planner.pb.h"
+
+namespace wj::robot_client {
+
+namespace v1 = wheeljump::planner::v1;
+
+namespace {
+
+constexpr int kIdle = 0, kWriting = 3, kPosted = 1, kStop = 4;
+
+void setVector(v1::Vector3* out, const Eigen::Vector3d& v) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+
+v1::PlanJumpRequest makeRequest(const PlanRequestSnapshot& s, const PlannerConnection& c) {
+  v1::PlanJumpRequest r;
+  v1::RobotState* st = r.mutable_state();
+  setVector(st->mutable_base_position_w_m(), s.p_WB);
+  v1::Quaternion* q = st->mutable_base_orientation_w();
+  const Eigen::Quaterniond qn = s.q_WB.normalized();
+  q->set_w(qn.w());
+  q->set_x(qn.x());
+  q->set_y(qn.y());
+  q->set_z(qn.z());
+  setVector(st->mutable_base_linear_velocity_w_m_s(), s.v_WB);
+  setVector(st->mutable_base_angular_velocity_b_rad_s(), s.omega_B);
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    st->add_joint_positions_rad(s.q[j]);
+    st->add_joint_velocities_rad_s(s.qd[j]);
+  }
+  st->set_stamp_s(s.t);
+  v1::JumpTask* task = r.mutable_task();
+  task->set_target_dx_m(s.target_dx_m);
+  task->set_target_height_m(s.target_height_m);
+  task->set_target_pitch_change_rad(s.target_pitch_change_rad);
+  task->set_event(s.event == planner::TargetEvent::Apex ? v1::TARGET_EVENT_APEX
+                                                        : v1::TARGET_EVENT_TOUCHDOWN);
+  task->set_takeoff_mode(s.mode == planner::TakeoffMode::TwoStep ? v1::TAKEOFF_MODE_TWO_STEP
+                                                                 : v1::TAKEOFF_MODE_SIMULTANEOUS);
+  if (s.has_obstacle) {
+    v1::BoxObstacle* o = task->mutable_obstacle();
+    o->set_x_min_m(s.obstacle_x_min_m);
+    o->set_x_max_m(s.obstacle_x_max_m);
+    o->set_height_m(s.obstacle_height_m);
+  }
+  v1::ComputeBudget* b = r.mutable_budget();
+  b->set_max_evaluations(c.max_evaluations);
+  b->set_seed(c.seed);
+  b->set_skip_verification(c.skip_verification);
+  std::ostringstream id;
+  id << (s.speculative ? "prefetch-" : "jump-") << std::lround(s.t * 1000.0);
+  r.set_request_id(id.str());
+  return r;
+}
+
+planner::JumpEvent fromProto(const v1::JumpEvent& e) {
+  planner::JumpEvent out;
+  out.t = e.t_s();
+  out.state = {e.com_x_m(),    e.com_z_m(),    e.pitch_rad(),
+               e.com_vx_m_s(), e.com_vz_m_s(), e.pitch_rate_rad_s()};
+  out.base_z = e.base_z_m();
+  return out;
+}
+
+planner::JumpOutcome fromProto(const v1::JumpOutcome& o) {
+  planner::JumpOutcome out;
+  out.takeoff = fromProto(o.takeoff());
+  out.apex = fromProto(o.apex());
+  out.touchdown = fromProto(o.touchdown());
+  out.min_obstacle_clearance = o.min_obstacle_clearance_m();
+  return out;
+}
+
+planner::Polynomial fromProto(const v1::Polynomial& p) {
+  return planner::Polynomial{{p.coefficients().begin(), p.coefficients().end()}};
+}
+
+std::string sourceName(v1::PlanSource s) {
+  switch (s) {
+    case v1::PLAN_SOURCE_CACHE_HIT:
+      return "cache_hit";
+    case v1::PLAN_SOURCE_CACHE_MISS:
+      return "cache_miss";
+    case v1::PLAN_SOURCE_WARM_START:
+      return "warm_start";
+    case v1::PLAN_SOURCE_COALESCED:
+      return "coalesced";
+    default:
+      return "unspecified";
+  }
+}
+
+std::string verificationName(v1::VerificationStatus s) {
+  switch (s) {
+    case v1::VERIFICATION_STATUS_PASSED:
+      return "passed";
+    case v1::VERIFICATION_STATUS_FAILED:
+      return "failed";
+    case v1::VERIFICATION_STATUS_NOT_RUN:
+      return "not_run";
+    default:
+      return "unspecified";
+  }
+}
+
+}  // namespace
+
+std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner::JumpPlan& plan) {
+  const v1::Plan& p = response.plan();
+  const v1::JointTrajectory& jt = p.joints();
+  const int n = static_cast<int>(jt.num_samples());
+  const std::size_t values = static_cast<std::size_t>(n) * model::kNumJoints;
+  if (n < 2) return "the plan has fewer than 2 joint samples";
+  if (static_cast<std::size_t>(jt.positions_rad_size()) != values ||
+      static_cast<std::size_t>(jt.velocities_rad_s_size()) != values ||
+      static_cast<std::size_t>(jt.torques_nm_size()) != values)
+    return "joint trajectory sizes do not match num_samples x 16";
+  if (p.centroidal_trajectory_size() != n)
+    return "centroidal trajectory has " + std::to_string(p.centroidal_trajectory_size()) +
+           " samples, joints " + std::to_string(n);
+  plan = planner::JumpPlan{};
+  plan.t1 = p.phase_times().t1_s();
+  plan.t2 = p.phase_times().t2_s();
+  plan.t3 = p.phase_times().t3_s();
+  plan.mode = p.force_phases_size() > 1 ? planner::TakeoffMode::TwoStep
+                                        : planner::TakeoffMode::Simultaneous;
+  for (const v1::ForcePhase& fp : p.force_phases()) {
+    planner::ForcePhase f;
+    f.t_start = fp.t_start_s();
+    f.t_end = fp.t_end_s();
+    f.hind = {fromProto(fp.hind().fx_n()), fromProto(fp.hind().fz_n())};
+    f.front = {fromProto(fp.front().fx_n()), fromProto(fp.front().fz_n())};
+    plan.force_phases.push_back(std::move(f));
+  }
+  plan.dt = jt.sample_period_s();
+  plan.q.resize(n, model::kNumJoints);
+  plan.qd.resize(n, model::kNumJoints);
+  plan.tau.resize(n, model::kNumJoints);
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < model::kNumJoints; ++j) {
+      const int i = k * model::kNumJoints + j;
+      plan.q(k, j) = jt.positions_rad(i);
+      plan.qd(k, j) = jt.velocities_rad_s(i);
+      plan.tau(k, j) = jt.torques_nm(i);
+    }
+  plan.centroidal.reserve(static_cast<std::size_t>(n));
+  for (const v1::CentroidalSample& c : p.centroidal_trajectory())
+    plan.centroidal.push_back({c.com_x_m(), c.com_z_m(), c.pitch_rad(), c.com_vx_m_s(),
+                               c.com_vz_m_s(), c.pitch_rate_rad_s()});
+  plan.initial = plan.centroidal.front();
+  plan.q_initial = plan.q.row(0).transpose();
+  plan.q_landing = plan.q.row(n - 1).transpose();
+  plan.decision =
+      Eigen::Map<const Eigen::VectorXd>(p.decision_vector().data(), p.decision_vector_size());
+  plan.predicted = fromProto(response.predicted());
+  return sim::checkPlan(plan);
+}
+
+PlanRequester::PlanRequester(const std::string& target, const PlannerConnection& connection,
+                             const model::RobotModel& robot, const sim::ExecutorSettings& executor,
+                             double gravity_m_s2)
+    : connection_(connection), robot_(robot), executor_settings_(executor), gravity_(gravity_m_s2) {
+  client::ClientOptions options;
+  options.target = target;
+  options.default_deadline =
+      std::chrono::milliseconds(static_cast<long>(connection.deadline_s * 1000.0));
+  client_ = std::make_unique<client::PlannerClient>(options);
+  worker_ = std::thread([this] { run(); });
+}
+
+PlanRequester::~PlanRequester() {
+  stop_.store(true);
+  slot_state_.store(kStop);
+  slot_state_.notify_all();
+  client_->cancelAll();
+  worker_.join();
+}
+
+bool PlanRequester::post(const PlanRequestSnapshot& snapshot) {
+  int expected = kIdle;
+  if (!slot_state_.compare_exchange_strong(expected, kWriting, std::memory_order_acquire))
+    return false;
+  slot_ = snapshot;
+  if (!snapshot.speculative) status_.store(PlanStatus::Pending, std::memory_order_release);
+  slot_state_.store(kPosted, std::memory_order_release);
+  slot_state_.notify_one();
+  return true;
+}
+
+void PlanRequester::run() {
+  for (;;) {
+    const int s = slot_state_.load(std::memory_order_acquire);
+    if (s == kStop || stop_.load()) return;
+    if (s != kPosted) {
+      slot_state_.wait(s, std::memory_order_acquire);
+      continue;
+    }
+    const PlanRequestSnapshot snapshot = slot_;
+    handle(snapshot);
+    int posted = kPosted;
+    slot_state_.compare_exchange_strong(posted, kIdle, std::memory_order_release);
+  }
+}
+
+void PlanRequester::handle(const PlanRequestSnapshot& snapshot) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto deadline =
+      std::chrono::milliseconds(static_cast<long>(connection_.deadline_s * 1000.0));
+  client::PlanResult result = client_->planJump(makeRequest(snapshot, connection_), deadline).get();
+  if (snapshot.speculative) return;  // only warms the service's cache
+  PlanRequestInfo info;
+  info.latency_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  info.attempts = result.attempts;
+  info.target_height_m = snapshot.target_height_m;
+  PlanStatus status = PlanStatus::Failed;
+  if (!result.ok()) {
+    info.summary = "status " + std::to_string(static_cast<int>(result.status.error_code())) + ": " +
+                   result.status.error_message();
+  } else {
+    const v1::PlanJumpResponse& r = result.response;
+    info.source = sourceName(r.source());
+    info.verification = verificationName(r.verification().status());
+    info.summary = r.feasibility().summary();
+    info.feasible = r.feasibility().feasible();
+    info.predicted = fromProto(r.predicted());
+    info.simulated = fromProto(r.verification().simulated());
+    const bool verified_ok = r.verification().status() != v1::VERIFICATION_STATUS_FAILED;
+    if (!info.feasible || !verified_ok) {
+      status = PlanStatus::Infeasible;
+      if (!verified_ok) info.summary += "; verification failed";
+    } else {
+      executor_.reset();
+      const std::string problem = convert(r, plan_);
+      if (problem.empty()) {
+        executor_.emplace(robot_, plan_, executor_settings_, gravity_);
+        status = PlanStatus::Feasible;
+      } else {
+        info.summary = "unusable plan: " + problem;
+        status = PlanStatus::Failed;
+      }
+    }
+  }
+  info_ = std::move(info);
+  status_.store(status, std::memory_order_release);
+}
+
+}  // namespace wj::robot_client

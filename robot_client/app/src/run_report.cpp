@@ -1,0 +1,310 @@
+#include "robot_client/run_report.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <iomanip>
+#include <sstream>
+
+#include "robot_client/backends.h"
+#include "robot_client/plan_requester.h"
+#include "sim/sim_robot.h"
+
+namespace wj::robot_client {
+
+namespace {
+
+const std::array<std::string, model::kJointsPerLeg> kKindNames = {"HAA", "HFE", "KFE", "WHEEL"};
+
+nlohmann::json num(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+
+std::string fmt(double v, int precision = 3) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(precision) << v;
+  return s.str();
+}
+
+}  // namespace
+
+RunRecorder::RunRecorder(const model::RobotModel& robot, const ClientSettings& settings,
+                         const ScenarioSettings& scenario, const std::string& csv_path)
+    : robot_(robot), settings_(settings), scenario_(scenario), csv_path_(csv_path) {
+  if (csv_path_.empty()) return;
+  csv_.open(csv_path_);
+  if (!csv_) throw std::runtime_error("cannot write telemetry file " + csv_path_);
+  csv_ << "t,mode,est_x,est_y,est_z,est_vx,est_vy,est_vz,roll,pitch,est_com_x";
+  for (const char* what : {"q", "qd", "tau"})
+    for (int j = 0; j < model::kNumJoints; ++j)
+      csv_ << "," << what << "_" << robot_.joints()[j].name;
+  for (int leg = 0; leg < model::kNumLegs; ++leg)
+    csv_ << ",fn_" << model::toString(static_cast<model::Leg>(leg));
+  csv_ << ",compute_us,true_x,true_z,true_vx,true_pitch,true_com_x,true_com_z,true_clearance\n";
+}
+
+void RunRecorder::drain(ControlLoop& loop) {
+  Transition tr;
+  while (loop.transitions().tryPop(tr)) {
+    transitions_.push_back(tr);
+    spdlog::info("t={:.3f} s {} -> {} ({}), CoM x {:.3f} m, speed {:.3f} m/s", tr.t,
+                 toString(tr.from), toString(tr.to), toString(tr.reason), tr.com_x, tr.speed);
+  }
+  TelemetrySample s;
+  while (loop.telemetry().tryPop(s)) {
+    if (!csv_.is_open()) continue;
+    csv_ << s.t << "," << toString(s.mode);
+    for (double v : s.p_WB) csv_ << "," << v;
+    for (double v : s.v_WB) csv_ << "," << v;
+    csv_ << "," << s.roll << "," << s.pitch << "," << s.com_x;
+    for (const auto* a : {&s.q, &s.qd, &s.tau})
+      for (double v : *a) csv_ << "," << v;
+    for (double f : s.contact_force) csv_ << "," << f;
+    csv_ << "," << s.compute_us;
+    if (have_truth_row_ && std::abs(truth_row_[0] - s.t) < 1e-9)
+      for (int i = 1; i < 8; ++i) csv_ << "," << truth_row_[i];
+    else
+      csv_ << ",,,,,,,";
+    csv_ << "\n";
+  }
+}
+
+void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
+  truth_.available = true;
+  const Mode m = loop.mode();
+  const double t_read = loop.time();  // the sensor time of the period just run
+  const Eigen::Vector3d p = gt.X_WB.translation();
+  const Eigen::Matrix3d R = gt.X_WB.linear();
+  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
+  const double roll = std::atan2(R(2, 1), R(2, 2));
+  have_truth_row_ = true;
+  truth_row_ = {
+      t_read,      p.x(),
+      p.z(),       gt.v_WB.x(),
+      pitch,       gt.p_WC.x(),
+      gt.p_WC.z(), std::isfinite(gt.obstacle_clearance_m) ? gt.obstacle_clearance_m : 99.0};
+  if (m == Mode::Takeoff && std::isnan(truth_.takeoff_speed)) {
+    truth_.takeoff_speed = gt.v_WC.x();
+    truth_.takeoff_com_x = gt.p_WC.x();
+  }
+  if (m == Mode::Takeoff || m == Mode::Flight) {
+    truth_.apex_base_z = std::max(truth_.apex_base_z, p.z());
+    truth_.apex_com_z = std::max(truth_.apex_com_z, gt.p_WC.z());
+  }
+  if (m == Mode::Landing && std::isnan(truth_.touchdown_dx))
+    truth_.touchdown_dx = gt.p_WC.x() - truth_.takeoff_com_x;
+  truth_.min_clearance = std::min(truth_.min_clearance, gt.obstacle_clearance_m);
+  truth_.body_hit_ground = truth_.body_hit_ground || gt.base_in_contact || gt.legs_in_contact;
+  truth_.final_x = p.x();
+  truth_.final_pitch = pitch;
+  truth_.final_roll = roll;
+  truth_.final_speed = gt.v_WB.x();
+  truth_.final_height = p.z();
+  double front = -1e9;
+  for (const model::Leg leg : {model::Leg::LF, model::Leg::RF})
+    front = std::max(front, p.x() + R(0, 0) * robot_.legGeometry(leg).p_BH.x());
+  truth_.final_front_wheel_x = front + robot_.wheelRadius();
+  // Estimator error (position drifts by design in x and y; the height and velocity are
+  // observable).
+  const estimation::EstimatedState& e = loop.estimate();
+  pos_err2_ += (e.p_WB - p).squaredNorm();
+  vel_err2_ += (e.v_WB - gt.v_WB).squaredNorm();
+  ++err_n_;
+}
+
+RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* requester,
+                                  const Backend& backend, const MpcCounters& mpc) {
+  RunSummary s;
+  s.scenario = scenario_.name;
+  s.backend = backend.name();
+  s.can_report = backend.canReport();
+  const JumpStateMachine& fsm = loop.stateMachine();
+  s.jumped = fsm.jumped();
+  s.abort_reason =
+      fsm.abortReason() == Reason::Start ? "" : std::string(toString(fsm.abortReason()));
+  s.final_mode = std::string(toString(loop.mode()));
+  s.takeoff_speed_est = loop.takeoffSpeed();
+  s.transitions = transitions_;
+  s.mpc = mpc;
+  s.sim_time_s = loop.time();
+  if (requester != nullptr && requester->status() != PlanStatus::None &&
+      requester->status() != PlanStatus::Pending) {
+    const PlanRequestInfo& info = requester->info();
+    s.plan_latency_ms = info.latency_ms;
+    s.plan_source = info.source;
+    s.plan_verification = info.verification;
+    s.plan_summary = info.summary;
+    s.plan_target_height = info.target_height_m;
+    if (info.feasible || !info.source.empty()) {
+      s.planned_apex_base_z = info.predicted.apex.base_z;
+      s.planned_clearance = info.predicted.min_obstacle_clearance;
+      s.planned_touchdown_dx = info.predicted.touchdown.state.x;
+    }
+  }
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    const int kind = j % model::kJointsPerLeg;
+    s.max_torque[kind] = std::max(s.max_torque[kind], loop.maxAbsTorque()[j]);
+    s.torque_limit[kind] = robot_.joints()[j].actuator.peak_torque_nm;
+  }
+  if (err_n_ > 0) {
+    truth_.est_pos_rms = std::sqrt(pos_err2_ / static_cast<double>(err_n_));
+    truth_.est_vel_rms = std::sqrt(vel_err2_ / static_cast<double>(err_n_));
+    truth_.est_samples = static_cast<double>(err_n_);
+  }
+  s.truth = truth_;
+
+  // Verdict.
+  std::ostringstream v;
+  if (loop.mode() == Mode::Damping) {
+    v << "damping mode (" << s.abort_reason << ")";
+  } else if (!s.jumped) {
+    v << "no jump: " << (s.abort_reason.empty() ? "run ended" : s.abort_reason);
+    if (truth_.available && scenario_.has_wall) {
+      const bool before =
+          truth_.final_front_wheel_x < scenario_.wall_x_m && truth_.min_clearance > 0.0;
+      v << (before ? "; stopped before the wall" : "; DID NOT STOP before the wall");
+    }
+  } else {
+    const bool upright = std::abs(truth_.final_pitch) < 0.3 && std::abs(truth_.final_roll) < 0.3;
+    const bool stopped = loop.mode() == Mode::Stand;
+    const bool cleared =
+        !scenario_.has_wall || (truth_.min_clearance > 0.0 && truth_.final_x > scenario_.wall_x_m);
+    if (!truth_.available) {
+      s.success = stopped;
+      v << (stopped ? "jumped and stopped" : "jumped, not stopped");
+    } else {
+      s.success = upright && stopped && cleared && !truth_.body_hit_ground;
+      v << (scenario_.has_wall ? (cleared ? "cleared the wall" : "DID NOT CLEAR the wall")
+                               : "jumped")
+        << (upright ? ", landed upright" : ", NOT upright")
+        << (truth_.body_hit_ground ? ", body touched the ground" : "")
+        << (stopped ? ", stopped" : ", not stopped");
+    }
+  }
+  s.verdict = v.str();
+  return s;
+}
+
+nlohmann::json RunSummary::toJson() const {
+  nlohmann::json j;
+  j["scenario"] = scenario;
+  j["backend"] = backend;
+  j["success"] = success;
+  j["verdict"] = verdict;
+  j["jumped"] = jumped;
+  j["abort_reason"] = abort_reason;
+  j["final_mode"] = final_mode;
+  j["takeoff_speed_estimated_m_s"] = num(takeoff_speed_est);
+  j["plan"] = {{"latency_ms", num(plan_latency_ms)},
+               {"source", plan_source},
+               {"verification", plan_verification},
+               {"summary", plan_summary},
+               {"target_com_height_m", num(plan_target_height)},
+               {"predicted_apex_base_z_m", num(planned_apex_base_z)},
+               {"predicted_clearance_m", num(planned_clearance)},
+               {"predicted_touchdown_dx_m", num(planned_touchdown_dx)}};
+  if (truth.available)
+    j["simulated"] = {{"takeoff_speed_m_s", num(truth.takeoff_speed)},
+                      {"apex_base_z_m", num(truth.apex_base_z)},
+                      {"apex_com_z_m", num(truth.apex_com_z)},
+                      {"min_wall_clearance_m", num(truth.min_clearance)},
+                      {"touchdown_dx_m", num(truth.touchdown_dx)},
+                      {"body_touched_ground", truth.body_hit_ground},
+                      {"final_x_m", truth.final_x},
+                      {"final_pitch_rad", truth.final_pitch},
+                      {"final_roll_rad", truth.final_roll},
+                      {"final_speed_m_s", truth.final_speed},
+                      {"estimator_position_rms_m", truth.est_pos_rms},
+                      {"estimator_velocity_rms_m_s", truth.est_vel_rms}};
+  nlohmann::json torques = nlohmann::json::object();
+  for (int k = 0; k < model::kJointsPerLeg; ++k)
+    torques[kKindNames[k]] = {{"max_nm", max_torque[k]}, {"limit_nm", torque_limit[k]}};
+  j["max_torque"] = torques;
+  nlohmann::json trs = nlohmann::json::array();
+  for (const Transition& t : transitions)
+    trs.push_back({{"t", t.t},
+                   {"from", toString(t.from)},
+                   {"to", toString(t.to)},
+                   {"reason", toString(t.reason)},
+                   {"com_x", t.com_x},
+                   {"speed", t.speed}});
+  j["transitions"] = trs;
+  j["mpc"] = {{"cycles", mpc.cycles}, {"not_converged", mpc.not_converged}, {"max_ms", mpc.max_ms}};
+  j["sim_time_s"] = sim_time_s;
+  j["wall_s"] = wall_s;
+  if (!loop_stats.is_null()) j["loop"] = loop_stats;
+  if (!can_report.empty()) j["can"] = can_report;
+  return j;
+}
+
+void RunSummary::printTable(std::ostream& out) const {
+  const auto row = [&](const std::string& what, const std::string& a, const std::string& b) {
+    out << "  " << std::left << std::setw(30) << what << std::setw(18) << a << b << "\n";
+  };
+  out << "\n== robot_client: scenario " << scenario << " on " << backend << " ==\n";
+  row("", "planned/estimated", "simulated");
+  row("speed at take-off [m/s]", fmt(takeoff_speed_est), fmt(truth.takeoff_speed));
+  row("apex, base height [m]", fmt(planned_apex_base_z), fmt(truth.apex_base_z));
+  if (scenario == "vertical") row("  (paper: 0.5 m on hardware,", "0.7 m target)", "");
+  row("wall clearance [m]", fmt(planned_clearance),
+      std::isfinite(truth.min_clearance) ? fmt(truth.min_clearance) : "-");
+  row("touchdown dx, CoM [m]", fmt(planned_touchdown_dx), fmt(truth.touchdown_dx));
+  row("plan latency [ms]", fmt(plan_latency_ms, 1),
+      plan_source.empty() ? "-" : plan_source + ", verification " + plan_verification);
+  if (!plan_summary.empty())
+    out << "  plan (target CoM height " << fmt(plan_target_height) << " m): " << plan_summary
+        << "\n";
+  out << "  max |torque| per joint kind (limit):";
+  for (int k = 0; k < model::kJointsPerLeg; ++k)
+    out << "  " << kKindNames[k] << " " << fmt(max_torque[k], 1) << "/" << fmt(torque_limit[k], 0);
+  out << " Nm\n";
+  if (truth.available)
+    out << "  estimator error vs truth (RMS): position " << fmt(truth.est_pos_rms)
+        << " m, velocity " << fmt(truth.est_vel_rms) << " m/s\n";
+  out << "  NMPC cycles " << mpc.cycles << " (" << mpc.not_converged << " at the iteration limit), "
+      << fmt(sim_time_s, 2) << " s robot time in " << fmt(wall_s, 1) << " s wall\n";
+  if (!can_report.empty()) out << "  CAN: " << can_report << "\n";
+  out << "  transitions:";
+  for (const Transition& t : transitions) out << " " << toString(t.to) << "@" << fmt(t.t, 2);
+  out << "\n  verdict: " << verdict << (success ? " -> SUCCESS" : " -> FAILED") << "\n";
+}
+
+void RunRecorder::plot(const std::string& png, const ControlLoop& loop) const {
+  if (csv_path_.empty()) {
+    spdlog::warn("--plot needs --csv (the figure is drawn from the telemetry)");
+    return;
+  }
+  const double takeoff = loop.takeoffTime();
+  std::ostringstream gp;
+  const auto& hfe = robot_.joint(model::Leg::LF, model::JointKind::HFE).actuator;
+  // Columns: 1 t, 5 est_z, 6 est_vx, 12.. q (16), 28.. qd, 44.. tau, 60..63 fn, 64 compute,
+  // 65 true_x, 66 true_z, 67 true_vx, 68 true_pitch, 69 true_com_x, 70 true_com_z.
+  gp << "set terminal pngcairo size 1200,1100 font ',10'\n"
+     << "set output '" << png << "'\nset datafile separator ','\nset key outside right\nset grid\n"
+     << "set multiplot layout 3,1 title 'robot\\_client " << scenario_.name << "'\n";
+  if (std::isfinite(takeoff))
+    gp << "set arrow from " << takeoff << ", graph 0 to " << takeoff
+       << ", graph 1 nohead dt 3 lc 'gray'\n";
+  gp << "set ylabel 'speed [m/s]'\nplot '" << csv_path_
+     << "' every ::1 using 1:6 w l t 'estimated vx', '' every ::1 using 1:67 w l t 'true vx'\n"
+     << "set ylabel 'height [m]'\nplot '" << csv_path_
+     << "' every ::1 using 1:5 w l t 'estimated base z', '' every ::1 using 1:66 w l t 'true base "
+        "z', '' every ::1 using 1:70 w l t 'true CoM z'\n"
+     << "set ylabel 'LF torque [Nm]'\nplot '" << csv_path_
+     << "' every ::1 using 1:44 w l t 'HAA', '' every ::1 using 1:45 w l t 'HFE', '' every ::1 "
+        "using 1:46 w l t 'KFE', '' every ::1 using 1:47 w l t 'WHEEL', "
+     << hfe.peak_torque_nm << " dt 2 lc 'red' t 'peak', " << -hfe.peak_torque_nm
+     << " dt 2 lc 'red' notitle\nunset multiplot\n";
+  const std::string script = png + ".gp";
+  {
+    std::ofstream f(script);
+    f << gp.str();
+  }
+  const std::string cmd = "gnuplot '" + script + "'";
+  if (std::system(cmd.c_str()) != 0) spdlog::warn("gnuplot failed for {}", png);
+}
+
+}  // namespace wj::robot_client

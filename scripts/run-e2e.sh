@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# The end-to-end simulated jump (the README's main job, after the build): starts the planning
+# service on loopback, then runs the robot client on the simulated robot for the forward
+# scenario (roll up to 3 m/s, plan, jump over a 0.25 m wall, land, stop; every command and
+# measurement through emulated MIT-mode CAN frames) and the vertical scenario. Summaries on
+# stdout, telemetry and figures in out/. Usage: scripts/run-e2e.sh [build dir] [seed]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${1:-build/release}
+SEED=${2:-1}
+BIN=$BUILD/bin
+mkdir -p out
+PORT=${WJ_E2E_PORT:-50151}
+
+# The service's configuration: the shipped one, listening on this port, cache under out/.
+sed -e "s|^listen: .*|listen: \"127.0.0.1:${PORT}\"|" \
+    -e "s|^  path: .*|  path: \"$(pwd)/out/plan_cache.sqlite\"|" \
+    config/planner_server.yaml > out/planner_server.yaml
+"$BIN/planner_server" --config out/planner_server.yaml > out/planner_server.log 2>&1 &
+SERVER=$!
+trap 'kill $SERVER 2>/dev/null; wait $SERVER 2>/dev/null || true' EXIT
+for _ in $(seq 1 100); do
+  if "$BIN/planner_cli" --target "127.0.0.1:${PORT}" --deadline-ms 500 stats > /dev/null 2>&1; then
+    break
+  fi
+  sleep 0.1
+done
+
+status=0
+run() {
+  local scenario=$1; shift
+  echo "=== robot_client: $scenario ==="
+  local rc=0
+  "$BIN/robot_client" --backend sim "$@" --config config/robot_client.yaml \
+    --planner "127.0.0.1:${PORT}" --scenario "$scenario" --seed "$SEED" \
+    --csv "out/e2e_${scenario}.csv" --plot "out/e2e_${scenario}.png" || rc=$?
+  if [ "$rc" -eq 2 ]; then status=2; elif [ "$rc" -ne 0 ] && [ "$status" -eq 0 ]; then status=3; fi
+}
+run forward --via-can
+run vertical
+echo "telemetry and figures in out/ (e2e_*.csv, e2e_*.png); service log out/planner_server.log"
+exit "$status"

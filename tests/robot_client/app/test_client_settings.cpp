@@ -1,0 +1,88 @@
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "robot_client/client_settings.h"
+
+namespace wj::robot_client {
+namespace {
+
+std::string shippedConfig() {
+  std::ifstream in(std::string(WJ_CONFIG_DIR) + "/robot_client.yaml");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+std::string replace(std::string text, const std::string& from, const std::string& to) {
+  const auto pos = text.find(from);
+  EXPECT_NE(pos, std::string::npos) << from;
+  if (pos != std::string::npos) text.replace(pos, from.size(), to);
+  return text;
+}
+
+TEST(ClientSettings, ShippedConfigParsesAndValidates) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  EXPECT_DOUBLE_EQ(s.loop.period_s, 0.001);
+  EXPECT_DOUBLE_EQ(s.forward.run_up_speed_m_s, 3.0);
+  EXPECT_DOUBLE_EQ(s.forward.wall_height_m, 0.25);
+  EXPECT_EQ(s.vertical.event, planner::TargetEvent::Apex);
+  EXPECT_EQ(&s.scenario("forward"), &s.forward);
+  EXPECT_THROW((void)s.scenario("backflip"), std::invalid_argument);
+}
+
+TEST(ClientSettings, UnknownKeyIsNamed) {
+  const std::string text = replace(shippedConfig(), "  cpu: -1 ", "  cpu: -1\n  cpus: 2 ");
+  try {
+    (void)parseClientSettings(text, "x.yaml");
+    FAIL() << "accepted an unknown key";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown key 'loop.cpus'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ClientSettings, MissingKeyIsNamed) {
+  const std::string text = replace(shippedConfig(), "  damping_kd: 1.5", "");
+  try {
+    (void)parseClientSettings(text, "x.yaml");
+    FAIL() << "accepted a missing key";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing key 'safety.damping_kd'"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(ClientSettings, OutOfRangeValueNamesFieldAndRange) {
+  const std::string text = replace(shippedConfig(), "period_s: 0.001", "period_s: 0.5");
+  try {
+    (void)parseClientSettings(text, "x.yaml");
+    FAIL() << "accepted a 0.5 s control period";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("loop.period_s must be in [0.0001, 0.01]"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {
+  const std::string text =
+      replace(shippedConfig(), "x_m: 10.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff",
+              "x_m: 4.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff");
+  EXPECT_THROW((void)parseClientSettings(text, "x.yaml"), std::invalid_argument);
+}
+
+TEST(ClientSettings, BadEnumListsTheChoices) {
+  const std::string text = replace(shippedConfig(), "event: touchdown", "event: landing");
+  try {
+    (void)parseClientSettings(text, "x.yaml");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("is not one of apex, touchdown"), std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace wj::robot_client

@@ -1,0 +1,203 @@
+#include <gtest/gtest.h>
+
+#include "robot_client/jump_state_machine.h"
+
+namespace wj::robot_client {
+namespace {
+
+ScenarioSettings forward() {
+  ScenarioSettings s;  // defaults: run-up 3 m/s, wall at 6 m, take-off 1.2 m before it
+  s.stand_s = 0.5;
+  s.wall_x_m = 10.0;
+  return s;
+}
+
+ScenarioSettings vertical() {
+  ScenarioSettings s;
+  s.name = "vertical";
+  s.run_up_speed_m_s = 0.0;
+  s.has_wall = false;
+  s.stand_s = 1.0;
+  s.plan_timeout_s = 2.0;
+  return s;
+}
+
+// Drives the machine through time with a simple kinematic robot.
+struct Drive {
+  JumpStateMachine fsm;
+  FsmInput in;
+  int requests = 0, takeoffs = 0, brakes = 0, rolls = 0;
+  explicit Drive(const ScenarioSettings& s) : fsm(s, SafetySettings{}) {}
+  FsmOutput tick(double dt = 0.01) {
+    in.t += dt;
+    in.com_x += in.speed * dt;
+    const FsmOutput out = fsm.step(in);
+    requests += out.request_plan;
+    takeoffs += out.start_takeoff;
+    brakes += out.brake;
+    rolls += out.start_roll;
+    return out;
+  }
+  // Ticks until `mode` or the time limit.
+  bool until(Mode mode, double t_max) {
+    while (in.t < t_max) {
+      if (tick().mode == mode) return true;
+    }
+    return false;
+  }
+};
+
+TEST(JumpStateMachine, ForwardJumpGoesThroughEveryPhaseInOrder) {
+  Drive d(forward());
+  ASSERT_TRUE(d.until(Mode::Roll, 1.0));
+  EXPECT_NEAR(d.in.t, 0.5, 0.011);
+  EXPECT_EQ(d.rolls, 1);
+  d.in.speed = 2.0;  // still accelerating: no request
+  d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Roll);
+  d.in.speed = 2.97;
+  ASSERT_EQ(d.tick().mode, Mode::Plan);
+  EXPECT_EQ(d.requests, 1);
+  d.in.plan = PlanStatus::Pending;
+  d.tick();
+  d.in.plan = PlanStatus::Feasible;  // in hand well before the decision point
+  ASSERT_TRUE(d.until(Mode::Takeoff, 10.0));
+  EXPECT_GE(d.in.com_x, 10.0 - 1.2 - 1e-9);  // the take-off point
+  EXPECT_LT(d.in.com_x, 10.0 - 1.2 + 0.031);
+  EXPECT_EQ(d.takeoffs, 1);
+  EXPECT_TRUE(d.fsm.jumped());
+  d.in.executor_in_flight = true;
+  EXPECT_EQ(d.tick().mode, Mode::Flight);
+  d.in.executor_in_flight = false;
+  d.in.executor_landing = true;
+  EXPECT_EQ(d.tick().mode, Mode::Landing);
+  d.in.executor_finished = true;
+  const FsmOutput out = d.tick();
+  EXPECT_EQ(out.mode, Mode::Brake);
+  EXPECT_TRUE(out.brake);
+  d.in.speed = 0.01;
+  EXPECT_EQ(d.tick().mode, Mode::Stand);
+  // And it stays standing: one jump per run.
+  for (int i = 0; i < 100; ++i) d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Stand);
+  EXPECT_EQ(d.requests, 1);
+  ASSERT_EQ(d.fsm.journalCount(), 7);
+  const Mode expected[] = {Mode::Roll,    Mode::Plan,  Mode::Takeoff, Mode::Flight,
+                           Mode::Landing, Mode::Brake, Mode::Stand};
+  for (int i = 0; i < 7; ++i) EXPECT_EQ(d.fsm.journal(i).to, expected[i]) << i;
+}
+
+TEST(JumpStateMachine, NoPlanByTheDecisionPointBrakesBeforeTheWall) {
+  Drive d(forward());
+  d.until(Mode::Roll, 1.0);
+  d.in.speed = 3.0;
+  d.tick();
+  ASSERT_EQ(d.fsm.mode(), Mode::Plan);
+  d.in.plan = PlanStatus::Pending;
+  ASSERT_TRUE(d.until(Mode::Brake, 10.0));
+  EXPECT_GE(d.in.com_x, d.fsm.decisionComX() - 1e-9);
+  EXPECT_LT(d.in.com_x, d.fsm.decisionComX() + 0.031);
+  EXPECT_EQ(d.fsm.abortReason(), Reason::NoPlanByDecisionPoint);
+  EXPECT_EQ(d.brakes, 1);
+  // A plan arriving late changes nothing.
+  d.in.plan = PlanStatus::Feasible;
+  d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Brake);
+  EXPECT_EQ(d.takeoffs, 0);
+  d.in.speed = 0.0;
+  d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Stand);
+  EXPECT_FALSE(d.fsm.jumped());
+}
+
+TEST(JumpStateMachine, InfeasiblePlanOrFailedPlannerAbortsAtOnce) {
+  for (const PlanStatus status : {PlanStatus::Infeasible, PlanStatus::Failed}) {
+    Drive d(forward());
+    d.until(Mode::Roll, 1.0);
+    d.in.speed = 3.0;
+    d.tick();
+    d.in.plan = status;
+    EXPECT_EQ(d.tick().mode, Mode::Brake);
+    EXPECT_EQ(d.fsm.abortReason(),
+              status == PlanStatus::Infeasible ? Reason::PlanInfeasible : Reason::PlannerFailed);
+    EXPECT_LT(d.in.com_x, d.fsm.decisionComX());
+  }
+}
+
+TEST(JumpStateMachine, NeverReachingRunUpSpeedAbortsAtTheDecisionPoint) {
+  Drive d(forward());
+  d.until(Mode::Roll, 1.0);
+  d.in.speed = 2.0;  // a weak drive
+  ASSERT_TRUE(d.until(Mode::Brake, 20.0));
+  EXPECT_EQ(d.requests, 0);
+  EXPECT_EQ(d.fsm.abortReason(), Reason::NoPlanByDecisionPoint);
+}
+
+TEST(JumpStateMachine, FaultsAndDivergenceGoToDampingFromAnyMode) {
+  for (int which = 0; which < 3; ++which) {
+    Drive d(forward());
+    d.until(Mode::Roll, 1.0);
+    d.in.speed = 3.0;
+    d.tick();
+    d.in.plan = PlanStatus::Feasible;
+    d.until(Mode::Takeoff, 20.0);
+    d.in.executor_in_flight = true;
+    d.tick();
+    ASSERT_EQ(d.fsm.mode(), Mode::Flight);
+    if (which == 0) d.in.motor_fault = true;
+    if (which == 1) d.in.estimator_diverged = true;
+    if (which == 2) d.in.watchdog_tripped = true;
+    EXPECT_EQ(d.tick().mode, Mode::Damping);
+    d.in.motor_fault = d.in.estimator_diverged = d.in.watchdog_tripped = false;
+    d.tick();
+    EXPECT_EQ(d.fsm.mode(), Mode::Damping) << "damping mode is final";
+    const Reason expected[] = {Reason::MotorFault, Reason::EstimatorDiverged, Reason::Watchdog};
+    EXPECT_EQ(d.fsm.journal(d.fsm.journalCount() - 1).reason, expected[which]);
+  }
+}
+
+TEST(JumpStateMachine, AttitudeLimitCountsOutsideTheJumpOnly) {
+  Drive d(forward());
+  d.until(Mode::Roll, 1.0);
+  d.in.speed = 3.0;
+  d.tick();
+  d.in.plan = PlanStatus::Feasible;
+  d.until(Mode::Takeoff, 20.0);
+  d.in.pitch = 1.2;  // a flip in the air is no fault
+  d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Takeoff);
+  d.in.executor_landing = true;
+  d.tick();
+  d.in.executor_finished = true;
+  d.tick();
+  ASSERT_EQ(d.fsm.mode(), Mode::Brake);
+  d.tick();  // still tilted after landing: damping
+  EXPECT_EQ(d.fsm.mode(), Mode::Damping);
+  EXPECT_EQ(d.fsm.journal(d.fsm.journalCount() - 1).reason, Reason::AttitudeLimit);
+}
+
+TEST(JumpStateMachine, VerticalJumpRequestsAfterStandingAndJumpsWhenThePlanArrives) {
+  Drive d(vertical());
+  ASSERT_TRUE(d.until(Mode::Plan, 2.0));
+  EXPECT_NEAR(d.in.t, 1.0, 0.011);
+  EXPECT_EQ(d.requests, 1);
+  EXPECT_EQ(d.rolls, 0);
+  d.in.plan = PlanStatus::Feasible;
+  EXPECT_EQ(d.tick().mode, Mode::Takeoff);
+}
+
+TEST(JumpStateMachine, VerticalJumpWithoutPlanStaysStanding) {
+  Drive d(vertical());
+  d.until(Mode::Plan, 2.0);
+  d.in.plan = PlanStatus::Pending;
+  ASSERT_TRUE(d.until(Mode::Stand, 10.0));
+  EXPECT_NEAR(d.in.t, 1.0 + 2.0, 0.03);
+  EXPECT_EQ(d.fsm.abortReason(), Reason::NoPlanByDecisionPoint);
+  d.in.plan = PlanStatus::Feasible;
+  for (int i = 0; i < 50; ++i) d.tick();
+  EXPECT_EQ(d.takeoffs, 0);
+  EXPECT_EQ(d.requests, 1);
+}
+
+}  // namespace
+}  // namespace wj::robot_client
