@@ -28,4 +28,5 @@ rm -rf "$out/_CPack_Packages"
 echo
 echo "packages:"
 ls -1 "$out"/*.deb
-echo "install them with: sudo apt install $(printf './%s ' "$out"/*.deb)"
+case "$out" in /*) prefix="" ;; *) prefix="./" ;; esac
+echo "install them with: sudo apt install $(printf "$prefix%s " "$out"/*.deb)"

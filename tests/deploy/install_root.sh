@@ -71,6 +71,18 @@ wait "$pid" || fail "planner_server exit status $? after SIGTERM"
 grep -q "planner_server stopped" "$log" || fail "no clean stop"
 [ -f "$root/var/lib/wheeljump-planner/plan_cache.sqlite" ] || fail "no cache file in the state directory"
 
+# The robot client, when its package was built: the binary runs, and every file its unit reads
+# through /etc/wheeljump/active exists in both profiles.
+if [ -e "$root/usr/bin/robot_client" ]; then
+  "$root/usr/bin/robot_client" --help >/dev/null || fail "robot_client --help"
+  for p in nuc workstation; do
+    for f in robot_client.env robot_client.yaml; do
+      [ -f "$root/etc/wheeljump/profiles/$p/$f" ] || fail "profile $p lacks $f"
+    done
+  done
+  [ -f "$root/lib/systemd/system/wheeljump-robot-client.service" ] || fail "robot client unit not installed"
+fi
+
 # wheeljump-profile switches the profile and the TLS drop-in, in the scratch root.
 WHEELJUMP_ROOT="$root" "$root/usr/bin/wheeljump-profile" list | grep -qx workstation || fail "profile list"
 WHEELJUMP_ROOT="$root" "$root/usr/bin/wheeljump-profile" workstation 2>/dev/null

@@ -5,6 +5,7 @@
 # executable, in a root of its own. Warnings count as failures.
 # usage: verify_units.sh ROOT SOURCE_DIR
 set -euo pipefail
+shopt -s nullglob
 root=$1 src=$2
 fail() { echo "FAIL: $*" >&2; exit 1; }
 command -v systemd-analyze >/dev/null || fail "systemd-analyze not found (package systemd)"
