@@ -7,9 +7,13 @@ set -euo pipefail
 server=$1 src=$2 work=$3
 fail() { echo "FAIL: $*" >&2; exit 1; }
 mkdir -p "$work"
+unset WJ_MODELS_DIR
 n=0
 for f in "$src"/deploy/profiles/*/planner_server.yaml; do
-  "$server" --check-config "$f" || fail "$f rejected"
+  msg=$("$server" --check-config "$f") || fail "$f rejected"
+  echo "$msg"
+  # A binary in the build tree reads the source tree's models (models_dir: "").
+  case "$msg" in *"from $src/models)") ;; *) fail "build-tree binary did not read $src/models" ;; esac
   n=$((n + 1))
 done
 [ "$n" -ge 2 ] || fail "expected the nuc and workstation profiles, found $n"
