@@ -140,10 +140,13 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   const std::int64_t total_budget = des.max_evaluations;
   const std::int64_t attempt_budget =
       std::max<std::int64_t>(total_budget / (settings_.de_restarts + 1), 10 * des.population_size);
+  // The best point of every attempt, for the polish retries.
+  std::vector<std::pair<double, Eigen::VectorXd>> attempt_bests;
   {
     de::Settings first = des;
     first.max_evaluations = std::min(attempt_budget, total_budget);
     r.de = de::Solver(first).solve(problem, options.warm_start, options.cancel);
+    attempt_bests.emplace_back(r.de.best.cost, r.de.best_x);
   }
   for (int restart = 1; !r.de.best.feasible && restart <= settings_.de_restarts; ++restart) {
     const bool cut_short = r.de.stop_reason == de::StopReason::Cancelled ||
@@ -159,6 +162,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
       if (again.time_budget_s <= 0.0) break;
     }
     de::Result next = de::Solver(again).solve(problem, Eigen::MatrixXd(), options.cancel);
+    attempt_bests.emplace_back(next.best.cost, next.best_x);
     for (auto& g : next.log) {
       g.generation += r.de.generations;
       g.evaluations += r.de.evaluations;
@@ -206,6 +210,28 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
         r.polish = PolishOutcome::Rejected;
       }
     }
+    // Still infeasible: the other attempts' bests, lowest cost first.
+    std::sort(attempt_bests.begin(), attempt_bests.end(),
+              [](const auto& a, const auto& b) { return a.first < b.first; });
+    int retries = 0;
+    for (const auto& [cost, x] : attempt_bests) {
+      if (r.evaluation.feasible || retries >= settings_.polish_retries) break;
+      if (x.size() != r.de.best_x.size() || x == r.de.best_x) continue;
+      if (options.cancel && options.cancel->load()) break;
+      ++retries;
+      Eigen::VectorXd u_retry;
+      int iterations = 0;
+      if (polishWithIpopt(model, x, u_retry, &iterations) == PolishOutcome::Failed) continue;
+      Evaluation ev;
+      model.evaluate(u_retry, ev);
+      r.polish_iterations += iterations;
+      if (ev.feasible) {
+        r.u = u_retry;
+        r.evaluation = ev;
+        r.polish = PolishOutcome::Improved;
+      }
+    }
+    r.polish_retries = retries;
     r.polish_ms = msSince(t0);
   }
   r.final_cost = r.evaluation.cost;

@@ -55,6 +55,7 @@ struct PlannerResult {
   int de_restarts = 0;                ///< DE restarts after stagnation without a feasible candidate
   PolishOutcome polish = PolishOutcome::NotRun;
   int polish_iterations = 0;
+  int polish_retries = 0;   ///< other attempts' bests polished after the best stayed infeasible
   double de_cost = 0.0;     ///< best cost after the DE
   double final_cost = 0.0;  ///< after the polish (<= de_cost)
   double de_ms = 0.0, polish_ms = 0.0, total_ms = 0.0;

@@ -90,6 +90,11 @@ struct PlannerSettings {
   bool polish = true;   ///< run the Ipopt polish on the DE's best candidate
   int polish_max_iterations = 15;
   double polish_tolerance = 1e-6;
+  /// When the polished best is still infeasible: polish the best of each other DE attempt
+  /// (restart), lowest cost first, up to this many, and keep the first that is feasible.
+  /// Near the feasibility boundary the attempts end in different basins, and the polish that
+  /// fails from one often succeeds from another.
+  int polish_retries = 3;
 
   PlannerSettings();
   /// Throws std::invalid_argument naming the field and its allowed range.
