@@ -46,6 +46,7 @@ struct Options {
   std::string csv;
   std::string plot;
   bool json_out = false;
+  bool fast = false;
   std::vector<std::string> can_interfaces = {"can0", "can1", "can2", "can3"};
 };
 
@@ -55,6 +56,8 @@ int run(const Options& opt) {
   const rc::ScenarioSettings& scenario = settings.scenario(opt.scenario);
 
   wj::nmpc::LocomotionSettings loco;
+  loco.model.nominal_base_height_m = scenario.nmpc_base_height_m;
+  loco.reference.base_height_m = scenario.nmpc_base_height_m;
   wj::nmpc::LocomotionController controller(robot, loco);
 
   std::unique_ptr<rc::Backend> backend;
@@ -76,7 +79,7 @@ int run(const Options& opt) {
 
   rc::MpcWorker mpc(controller, settings.loop.mpc_period_s, /*lockstep=*/simulated);
   rc::ControlLoop loop(robot, settings, scenario, backend->robot(), controller, mpc,
-                       requester.get(), backend->faults());
+                       requester.get(), backend->faults(), backend->rangeSensor());
   rc::RunRecorder recorder(robot, settings, scenario, opt.csv);
 
   loop.initialise(backend->startPosition());
@@ -121,6 +124,9 @@ int run(const Options& opt) {
     if (simulated) {
       backend->observe(loop, recorder);
       recorder.drain(loop);
+      // Paced to the wall clock, so that the planning service's latency counts as on the
+      // robot (--fast: as fast as the machine goes; a cold plan then seems slower).
+      if (!opt.fast) timer.waitNext();
     } else {
       timer.waitNext();
       stats.record(timer.lateness(), std::chrono::duration_cast<std::chrono::nanoseconds>(compute),
@@ -171,6 +177,9 @@ int main(int argc, char** argv) {
   app.add_option("--csv", opt.csv, "telemetry CSV file");
   app.add_option("--plot", opt.plot, "figure (PNG, gnuplot)");
   app.add_flag("--json", opt.json_out, "print the summary as JSON");
+  app.add_flag("--fast", opt.fast,
+               "sim backend: do not pace simulated time to the wall clock (plan latency then "
+               "weighs more)");
   app.add_option("--can-interfaces", opt.can_interfaces,
                  "can backend: one interface per leg, LF RF LH RH")
       ->expected(4);

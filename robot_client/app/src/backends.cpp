@@ -1,5 +1,7 @@
 #include "robot_client/backends.h"
 
+#include <optional>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 
@@ -40,6 +42,31 @@ sim::RobotPlacement standingPlacement(const model::RobotModel& robot,
   return sim::calcPlacement(robot, init, terrain);
 }
 
+// A forward range sensor on the simulated robot: the true distance from the base origin to the
+// wall's near face plus seeded Gaussian noise, in range between 0.05 m and 6 m.
+class SimRangeSensor final : public RangeSensor {
+ public:
+  static constexpr double kNoiseStd = 0.01;  // [m], a depth camera at a few metres
+  static constexpr double kMaxRange = 6.0;   // [m]
+
+  SimRangeSensor(const sim::SimRobot& sim, double wall_x_m, std::uint64_t seed)
+      : sim_(sim), wall_x_(wall_x_m), rng_(seed ^ 0x5EEDu), noise_(0.0, kNoiseStd) {}
+  bool read(double& distance_m) override {
+    sim_.calcGroundTruth(gt_, false);
+    const double d = wall_x_ - gt_.X_WB.translation().x();
+    if (d < 0.05 || d > kMaxRange) return false;
+    distance_m = d + noise_(rng_);
+    return true;
+  }
+
+ private:
+  const sim::SimRobot& sim_;
+  double wall_x_;
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> noise_;
+  sim::GroundTruth gt_;
+};
+
 class SimBackend final : public Backend {
  public:
   SimBackend(const model::RobotModel& robot, const nmpc::LocomotionController& controller,
@@ -47,7 +74,9 @@ class SimBackend final : public Backend {
       : sim_(robot, simSettings(scenario, seed, noise)) {
     placement_ = standingPlacement(robot, controller, sim_.settings().terrain);
     sim_.reset(placement_);
+    if (scenario.has_wall) range_.emplace(sim_, scenario.wall_x_m, seed);
   }
+  RangeSensor* rangeSensor() override { return range_ ? &*range_ : nullptr; }
   model::RobotInterface& robot() override { return sim_; }
   const FaultSource* faults() const override { return nullptr; }
   Eigen::Vector3d startPosition() const override { return placement_.X_WB.translation(); }
@@ -61,6 +90,7 @@ class SimBackend final : public Backend {
   sim::SimRobot sim_;
   sim::RobotPlacement placement_;
   sim::GroundTruth gt_;
+  std::optional<SimRangeSensor> range_;
 };
 
 class SimViaCanBackend final : public Backend, public FaultSource {
@@ -71,7 +101,9 @@ class SimViaCanBackend final : public Backend, public FaultSource {
                can::loadCanRobotSettings(can::defaultCanConfigFile())) {
     placement_ = standingPlacement(robot, controller, robot_.sim().settings().terrain);
     robot_.reset(placement_);
+    if (scenario.has_wall) range_.emplace(robot_.sim(), scenario.wall_x_m, seed);
   }
+  RangeSensor* rangeSensor() override { return range_ ? &*range_ : nullptr; }
   model::RobotInterface& robot() override { return robot_; }
   const FaultSource* faults() const override { return this; }
   bool hasFault() const override { return robot_via().canRobot().hasFault(); }
@@ -97,10 +129,11 @@ class SimViaCanBackend final : public Backend, public FaultSource {
 
  private:
   can::SimViaCan& robot_via() const { return robot_; }
-  mutable can::SimViaCan
-      robot_;  // its CAN side reports faults and counters through non-const calls
+  // Its CAN side reports faults and counters through non-const calls.
+  mutable can::SimViaCan robot_;
   sim::RobotPlacement placement_;
   sim::GroundTruth gt_;
+  std::optional<SimRangeSensor> range_;
 };
 
 }  // namespace

@@ -34,9 +34,11 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.wall_thickness_m, 0.01, 2.0, p + "wall.thickness_m");
   inRange(s.wall_height_m, 0.01, 1.0, p + "wall.height_m");
   inRange(s.takeoff_to_wall_m, 0.3, 3.0, p + "takeoff_to_wall_m");
+  inRange(s.nmpc_base_height_m, 0.2, 0.45, p + "nmpc_base_height_m");
   inRange(s.decision_margin_m, 0.0, 10.0, p + "decision_margin_m");
   inRange(s.target_dx_m, -3.0, 5.0, p + "target.dx_m");
-  inRange(s.target_base_height_m, 0.1, 1.5, p + "target.base_height_m");
+  inRange(s.target_com_height_m, 0.1, 1.5, p + "target.com_height_m");
+  inRange(s.speed_tolerance_m_s, 0.005, 0.5, p + "speed_tolerance_m_s");
   inRange(s.target_pitch_change_rad, -7.0, 7.0, p + "target.pitch_change_rad");
   inRange(s.plan_timeout_s, 0.05, 60.0, p + "plan_timeout_s");
   inRange(s.duration_s, 1.0, 600.0, p + "duration_s");
@@ -57,6 +59,7 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   s.stand_s = m.number("stand_s");
   s.run_up_speed_m_s = m.number("run_up_speed_m_s");
   s.acceleration_m_s2 = m.number("acceleration_m_s2");
+  s.speed_tolerance_m_s = m.number("speed_tolerance_m_s");
   StrictYamlMap wall = m.map("wall");
   s.has_wall = wall.flag("enabled");
   s.wall_x_m = wall.number("x_m");
@@ -64,10 +67,11 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   s.wall_height_m = wall.number("height_m");
   wall.finish();
   s.takeoff_to_wall_m = m.number("takeoff_to_wall_m");
+  s.nmpc_base_height_m = m.number("nmpc_base_height_m");
   s.decision_margin_m = m.number("decision_margin_m");
   StrictYamlMap target = m.map("target");
   s.target_dx_m = target.number("dx_m");
-  s.target_base_height_m = target.number("base_height_m");
+  s.target_com_height_m = target.number("com_height_m");
   s.target_pitch_change_rad = target.number("pitch_change_rad");
   const std::string event = target.text("event");
   if (event == "apex")
@@ -186,6 +190,7 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     s.planner.max_evaluations = static_cast<std::uint32_t>(m.unsignedInt("max_evaluations"));
     s.planner.seed = m.unsignedInt("seed");
     s.planner.skip_verification = m.flag("skip_verification");
+    s.planner.round_robin = m.flag("round_robin");
     m.finish();
   }
   s.executor = parseExecutor(root.map("executor"));

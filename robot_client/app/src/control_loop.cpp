@@ -26,7 +26,7 @@ void rollPitch(const Eigen::Quaterniond& q, double& roll, double& pitch) {
 ControlLoop::ControlLoop(const model::RobotModel& robot, const ClientSettings& settings,
                          const ScenarioSettings& scenario, model::RobotInterface& backend,
                          nmpc::LocomotionController& controller, MpcWorker& mpc,
-                         PlanRequester* requester, const FaultSource* faults)
+                         PlanRequester* requester, const FaultSource* faults, RangeSensor* range)
     : robot_(robot),
       settings_(settings),
       scenario_(scenario),
@@ -35,6 +35,7 @@ ControlLoop::ControlLoop(const model::RobotModel& robot, const ClientSettings& s
       mpc_(mpc),
       requester_(requester),
       faults_(faults),
+      range_(range),
       estimator_(robot, settings.estimator),
       fsm_(scenario, settings.safety),
       leg_{robot.legGeometry(model::Leg::LF).thigh_length,
@@ -58,6 +59,7 @@ void ControlLoop::initialise(const Eigen::Vector3d& p_WB) {
   t_ = sensors_.t;
   k_ = 0;
   mpc_input_ = MpcInput{};
+  mpc_input_.active = false;  // the first NMPC period starts it (cold, a few extra iterations)
   mpc_input_.command.t_start_s = t_;
   ++mpc_input_.command_version;
 }
@@ -146,14 +148,14 @@ void ControlLoop::postPlanRequest(bool speculative) {
     r.qd[j] = sensors_.joints[j].qd;
   }
   r.target_dx_m = scenario_.target_dx_m;
-  r.target_height_m = scenario_.target_base_height_m + com_offset_B_.z();
+  r.target_height_m = scenario_.target_com_height_m;
   r.target_pitch_change_rad = scenario_.target_pitch_change_rad;
   r.event = scenario_.event;
   r.mode = scenario_.mode;
   r.has_obstacle = scenario_.has_wall;
   if (scenario_.has_wall) {
     // In J: the origin lies below the CoM at the start of take-off, the take-off point.
-    r.obstacle_x_min_m = scenario_.wall_x_m - fsm_.takeoffComX();
+    r.obstacle_x_min_m = scenario_.takeoff_to_wall_m;
     r.obstacle_x_max_m = r.obstacle_x_min_m + scenario_.wall_thickness_m;
     r.obstacle_height_m = scenario_.wall_height_m;
   }
@@ -178,14 +180,26 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
     if (ex != nullptr) ex->update(t_ - takeoff_t_, sensors_, any_contact, commands_);
     return;
   }
+  // After a jump the robot brakes and stands in the landing posture (the executor's landing
+  // phase: impedance posture, wheel speed ramping to zero); the NMPC stays paused. Handing
+  // back to the NMPC from the landing posture is not reliable yet (docs/robot-client.md).
+  if (fsm_.jumped()) {
+    sim::PlanExecutor* ex = requester_ != nullptr ? requester_->executor() : nullptr;
+    if (ex != nullptr) {
+      ex->update(t_ - takeoff_t_, sensors_, true, commands_);
+      return;
+    }
+  }
   // NMPC modes: the MPC thread gets the state every MPC period; the loop evaluates the
   // latest policy every period.
+  const bool resuming = !mpc_input_.active;  // the first NMPC period: post at once
   mpc_input_.active = true;
-  if (k_ % static_cast<std::uint64_t>(mpc_every_) == 0) {
+  if (resuming || k_ - last_mpc_k_ >= static_cast<std::uint64_t>(mpc_every_)) {
     mpc_input_.t = t_;
     mpc_input_.x = x_;
     ++mpc_input_.sequence;
     mpc_.post(mpc_input_);
+    last_mpc_k_ = k_;
   }
   controller_.calcCommands(t_, x_, sensors_, commands_);
 }
@@ -211,6 +225,18 @@ void ControlLoop::step() {
   t_ = sensors_.t;
   updateContacts();
   estimate();
+
+  // The wall as the range sensor sees it, averaged in the estimator's frame: the take-off
+  // point then follows the wall, not the odometry's drift.
+  double range_m = 0.0;
+  const Mode m_now = fsm_.mode();
+  if (range_ != nullptr && (m_now == Mode::Stand || m_now == Mode::Roll || m_now == Mode::Plan) &&
+      range_->read(range_m)) {
+    const double wall = estimator_.state().p_WB.x() + range_m;
+    ++wall_readings_;
+    wall_x_est_ += (wall - wall_x_est_) / std::min(wall_readings_, 200);
+    fsm_.setWallX(wall_x_est_);
+  }
 
   FsmInput in;
   in.t = t_;

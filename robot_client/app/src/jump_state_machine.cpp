@@ -119,7 +119,8 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
     case Mode::Roll:
       if (scenario_.has_wall && in.com_x >= decisionComX()) {
         abort(Reason::NoPlanByDecisionPoint);
-      } else if (std::abs(in.speed - scenario_.run_up_speed_m_s) < 0.1) {
+      } else if (in.t >= mode_since_ + scenario_.run_up_speed_m_s / scenario_.acceleration_m_s2 &&
+                 std::abs(in.speed - scenario_.run_up_speed_m_s) < scenario_.speed_tolerance_m_s) {
         if (!scenario_.has_wall) takeoff_com_x_ = in.com_x;
         out.request_plan = true;
         enter(Mode::Plan, Reason::RunUpSpeedReached, in);

@@ -49,6 +49,7 @@ void MpcWorker::cycle(const MpcInput& in) {
     controller_.setSpeedCommand(in.command);
     applied_command_ = in.command_version;
   }
+  if (!was_active_) controller_.restart();
   const auto t0 = std::chrono::steady_clock::now();
   nmpc::SqpStatus status = controller_.updateMpc(in.t, in.x);
   // (Re)starting: a few more iterations at the same instant, from a stale or empty guess.

@@ -171,6 +171,8 @@ PlanRequester::PlanRequester(const std::string& target, const PlannerConnection&
     : connection_(connection), robot_(robot), executor_settings_(executor), gravity_(gravity_m_s2) {
   client::ClientOptions options;
   options.target = target;
+  options.load_balancing =
+      connection.round_robin ? client::LoadBalancing::RoundRobin : client::LoadBalancing::PickFirst;
   options.default_deadline =
       std::chrono::milliseconds(static_cast<long>(connection.deadline_s * 1000.0));
   client_ = std::make_unique<client::PlannerClient>(options);

@@ -90,6 +90,11 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
     truth_.takeoff_speed = gt.v_WC.x();
     truth_.takeoff_com_x = gt.p_WC.x();
   }
+  if (m == Mode::Flight && std::isnan(truth_.liftoff_vx)) {
+    truth_.liftoff_vx = gt.v_WC.x();
+    truth_.liftoff_vz = gt.v_WC.z();
+    truth_.liftoff_pitch_rate = -gt.w_WB.y();
+  }
   if (m == Mode::Takeoff || m == Mode::Flight) {
     truth_.apex_base_z = std::max(truth_.apex_base_z, p.z());
     truth_.apex_com_z = std::max(truth_.apex_com_z, gt.p_WC.z());
@@ -142,6 +147,11 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
       s.planned_apex_base_z = info.predicted.apex.base_z;
       s.planned_clearance = info.predicted.min_obstacle_clearance;
       s.planned_touchdown_dx = info.predicted.touchdown.state.x;
+      s.service_verified = info.simulated;
+      s.service_verified_available = info.verification == "passed" || info.verification == "failed";
+      s.planned_liftoff_vx = info.predicted.takeoff.state.vx;
+      s.planned_liftoff_vz = info.predicted.takeoff.state.vz;
+      s.planned_liftoff_pitch_rate = info.predicted.takeoff.state.pitch_rate;
     }
   }
   for (int j = 0; j < model::kNumJoints; ++j) {
@@ -205,13 +215,19 @@ nlohmann::json RunSummary::toJson() const {
                {"target_com_height_m", num(plan_target_height)},
                {"predicted_apex_base_z_m", num(planned_apex_base_z)},
                {"predicted_clearance_m", num(planned_clearance)},
-               {"predicted_touchdown_dx_m", num(planned_touchdown_dx)}};
+               {"predicted_touchdown_dx_m", num(planned_touchdown_dx)},
+               {"predicted_liftoff_vx_m_s", num(planned_liftoff_vx)},
+               {"predicted_liftoff_vz_m_s", num(planned_liftoff_vz)},
+               {"predicted_liftoff_pitch_rate_rad_s", num(planned_liftoff_pitch_rate)}};
   if (truth.available)
     j["simulated"] = {{"takeoff_speed_m_s", num(truth.takeoff_speed)},
                       {"apex_base_z_m", num(truth.apex_base_z)},
                       {"apex_com_z_m", num(truth.apex_com_z)},
                       {"min_wall_clearance_m", num(truth.min_clearance)},
                       {"touchdown_dx_m", num(truth.touchdown_dx)},
+                      {"liftoff_vx_m_s", num(truth.liftoff_vx)},
+                      {"liftoff_vz_m_s", num(truth.liftoff_vz)},
+                      {"liftoff_pitch_rate_rad_s", num(truth.liftoff_pitch_rate)},
                       {"body_touched_ground", truth.body_hit_ground},
                       {"final_x_m", truth.final_x},
                       {"final_pitch_rad", truth.final_pitch},
@@ -251,7 +267,18 @@ void RunSummary::printTable(std::ostream& out) const {
   if (scenario == "vertical") row("  (paper: 0.5 m on hardware,", "0.7 m target)", "");
   row("wall clearance [m]", fmt(planned_clearance),
       std::isfinite(truth.min_clearance) ? fmt(truth.min_clearance) : "-");
+  row("lift-off CoM vx, vz [m/s]", fmt(planned_liftoff_vx) + ", " + fmt(planned_liftoff_vz),
+      fmt(truth.liftoff_vx) + ", " + fmt(truth.liftoff_vz));
+  row("lift-off pitch rate [rad/s]", fmt(planned_liftoff_pitch_rate),
+      fmt(truth.liftoff_pitch_rate));
   row("touchdown dx, CoM [m]", fmt(planned_touchdown_dx), fmt(truth.touchdown_dx));
+  if (service_verified_available)
+    out << "  service's verification (from the plan's ideal start): apex base "
+        << fmt(service_verified.apex.base_z) << " m, clearance "
+        << fmt(service_verified.min_obstacle_clearance) << " m, lift-off vx, vz, pitch rate "
+        << fmt(service_verified.takeoff.state.vx) << ", " << fmt(service_verified.takeoff.state.vz)
+        << ", " << fmt(service_verified.takeoff.state.pitch_rate) << ", touchdown dx "
+        << fmt(service_verified.touchdown.state.x) << " m\n";
   row("plan latency [ms]", fmt(plan_latency_ms, 1),
       plan_source.empty() ? "-" : plan_source + ", verification " + plan_verification);
   if (!plan_summary.empty())

@@ -68,7 +68,7 @@ TEST(ClientSettings, OutOfRangeValueNamesFieldAndRange) {
 
 TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {
   const std::string text =
-      replace(shippedConfig(), "x_m: 10.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff",
+      replace(shippedConfig(), "x_m: 14.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff",
               "x_m: 4.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff");
   EXPECT_THROW((void)parseClientSettings(text, "x.yaml"), std::invalid_argument);
 }

@@ -55,8 +55,11 @@ TEST(JumpStateMachine, ForwardJumpGoesThroughEveryPhaseInOrder) {
   d.in.speed = 2.0;  // still accelerating: no request
   d.tick();
   EXPECT_EQ(d.fsm.mode(), Mode::Roll);
-  d.in.speed = 2.97;
-  ASSERT_EQ(d.tick().mode, Mode::Plan);
+  d.in.speed = 2.99;  // at speed before the ramp ends (t = 0.5 + 3 / 1.5): no request yet
+  d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Roll);
+  ASSERT_TRUE(d.until(Mode::Plan, 3.0));
+  EXPECT_NEAR(d.in.t, 2.5, 0.011);
   EXPECT_EQ(d.requests, 1);
   d.in.plan = PlanStatus::Pending;
   d.tick();
@@ -91,7 +94,7 @@ TEST(JumpStateMachine, NoPlanByTheDecisionPointBrakesBeforeTheWall) {
   Drive d(forward());
   d.until(Mode::Roll, 1.0);
   d.in.speed = 3.0;
-  d.tick();
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
   ASSERT_EQ(d.fsm.mode(), Mode::Plan);
   d.in.plan = PlanStatus::Pending;
   ASSERT_TRUE(d.until(Mode::Brake, 10.0));
@@ -115,7 +118,7 @@ TEST(JumpStateMachine, InfeasiblePlanOrFailedPlannerAbortsAtOnce) {
     Drive d(forward());
     d.until(Mode::Roll, 1.0);
     d.in.speed = 3.0;
-    d.tick();
+    ASSERT_TRUE(d.until(Mode::Plan, 5.0));
     d.in.plan = status;
     EXPECT_EQ(d.tick().mode, Mode::Brake);
     EXPECT_EQ(d.fsm.abortReason(),
@@ -138,7 +141,7 @@ TEST(JumpStateMachine, FaultsAndDivergenceGoToDampingFromAnyMode) {
     Drive d(forward());
     d.until(Mode::Roll, 1.0);
     d.in.speed = 3.0;
-    d.tick();
+    ASSERT_TRUE(d.until(Mode::Plan, 5.0));
     d.in.plan = PlanStatus::Feasible;
     d.until(Mode::Takeoff, 20.0);
     d.in.executor_in_flight = true;
@@ -160,7 +163,7 @@ TEST(JumpStateMachine, AttitudeLimitCountsOutsideTheJumpOnly) {
   Drive d(forward());
   d.until(Mode::Roll, 1.0);
   d.in.speed = 3.0;
-  d.tick();
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
   d.in.plan = PlanStatus::Feasible;
   d.until(Mode::Takeoff, 20.0);
   d.in.pitch = 1.2;  // a flip in the air is no fault

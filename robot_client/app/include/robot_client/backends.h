@@ -21,6 +21,7 @@ namespace wj::robot_client {
 class ControlLoop;
 class RunRecorder;
 struct FaultSource;
+struct RangeSensor;
 
 class Backend {
  public:
@@ -35,6 +36,8 @@ class Backend {
   virtual void observe(const ControlLoop& loop, RunRecorder& recorder) = 0;
   /// "sim", "sim-via-can" or "can".
   virtual std::string name() const = 0;
+  /// The forward range sensor, or null.
+  virtual RangeSensor* rangeSensor() { return nullptr; }
   /// CAN traffic and quantisation notes for the summary ("" when not on CAN).
   virtual std::string canReport() const { return {}; }
 };

@@ -51,6 +51,9 @@ struct PlannerConnection {
   std::uint32_t max_evaluations = 0;  ///< DE budget sent with the request (0 = server default)
   std::uint64_t seed = 0;             ///< DE seed sent with the request (0 = server default)
   bool skip_verification = false;     ///< ask for the planner's plan without verification
+  /// Spread calls over every address the target resolves to (several service replicas
+  /// behind a headless Service, docs/scaling.md) instead of sticking to the first.
+  bool round_robin = false;
 };
 
 /// What a scenario does. Forward: roll up to `run_up_speed_m_s`, request a plan, jump over the
@@ -60,18 +63,22 @@ struct ScenarioSettings {
   double stand_s = 1.0;            ///< standing before anything starts [s]
   double run_up_speed_m_s = 3.0;   ///< [m/s]; 0 = jump from standing
   double acceleration_m_s2 = 1.5;  ///< run-up acceleration [m/s^2]
+  /// The plan is requested once the speed ramp has ended and the speed is this close to the
+  /// run-up speed: the plan starts from the measured v0, so it must be the take-off speed.
+  double speed_tolerance_m_s = 0.03;
   bool has_wall = true;            ///< a wall stands in the way
   double wall_x_m = 6.0;           ///< near face of the wall, world x [m]
   double wall_thickness_m = 0.1;   ///< [m]
   double wall_height_m = 0.25;     ///< [m]
   double takeoff_to_wall_m = 1.2;  ///< CoM to the wall's near face at the start of take-off
+  /// Base height the NMPC holds while standing and rolling [m]: the run-up is done in the
+  /// posture the jump starts from (the planner plans from the measured posture).
+  double nmpc_base_height_m = 0.36;
   /// The plan must be in hand this far before the take-off point; otherwise the robot
   /// brakes and stops before the wall [m].
   double decision_margin_m = 1.0;
-  double target_dx_m = 1.9;  ///< CoM displacement from take-off start to the event [m]
-  /// Base height at the event above the ground [m]; converted to the CoM height with the
-  /// current posture's CoM offset.
-  double target_base_height_m = 0.3;
+  double target_dx_m = 1.9;               ///< CoM displacement from take-off start to the event [m]
+  double target_com_height_m = 0.27;      ///< CoM height at the event above the ground [m]
   double target_pitch_change_rad = 0.25;  ///< nose-up positive [rad]
   planner::TargetEvent event = planner::TargetEvent::Touchdown;
   planner::TakeoffMode mode = planner::TakeoffMode::Simultaneous;

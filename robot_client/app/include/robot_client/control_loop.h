@@ -42,6 +42,14 @@ struct FaultSource {
   virtual bool hasFault() const = 0;
 };
 
+/// A forward range sensor (depth camera, lidar): the horizontal distance from the base origin
+/// to the near face of the obstacle ahead [m]. read() is called once per period in the loop:
+/// real-time safe; false when nothing is in range.
+struct RangeSensor {
+  virtual ~RangeSensor() = default;
+  virtual bool read(double& distance_m) = 0;
+};
+
 class ControlLoop {
  public:
   using TelemetryRing = rt::SpscRing<TelemetrySample, 4096>;
@@ -52,7 +60,7 @@ class ControlLoop {
   ControlLoop(const model::RobotModel& robot, const ClientSettings& settings,
               const ScenarioSettings& scenario, model::RobotInterface& backend,
               nmpc::LocomotionController& controller, MpcWorker& mpc, PlanRequester* requester,
-              const FaultSource* faults);
+              const FaultSource* faults, RangeSensor* range = nullptr);
 
   /// Reads the sensors once and initialises the estimator at the measured posture, with the
   /// base at `p_WB` (the robot's known start position). Not real-time.
@@ -99,6 +107,9 @@ class ControlLoop {
   MpcWorker& mpc_;
   PlanRequester* requester_;
   const FaultSource* faults_;
+  RangeSensor* range_;
+  double wall_x_est_ = 0.0;  // perceived near face of the wall, estimator frame [m]
+  int wall_readings_ = 0;
   estimation::StateEstimator estimator_;
   JumpStateMachine fsm_;
   planner::PlanarLeg leg_;
@@ -110,6 +121,7 @@ class ControlLoop {
   MpcInput mpc_input_;
   int mpc_every_ = 10;
   std::uint64_t k_ = 0;
+  std::uint64_t last_mpc_k_ = 0;  // period of the last post to the NMPC
   double t_ = 0.0;
   double yaw_ = 0.0;
   double com_x_ = 0.0, speed_ = 0.0, roll_ = 0.0, pitch_ = 0.0;

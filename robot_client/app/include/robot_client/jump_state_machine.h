@@ -93,6 +93,12 @@ class JumpStateMachine {
   Mode mode() const { return mode_; }
   /// Take-off point: CoM x at which the take-off starts (forward scenario) [m].
   double takeoffComX() const { return takeoff_com_x_; }
+  /// The wall's near face as perceived in the estimator's frame (odometry drifts, a range
+  /// measurement does not): moves the take-off and decision points. Ignored once the jump
+  /// has started or without a wall.
+  void setWallX(double wall_x_m) {
+    if (scenario_.has_wall && !jumped_) takeoff_com_x_ = wall_x_m - scenario_.takeoff_to_wall_m;
+  }
   /// Decision point: the plan must be in hand before the CoM passes it [m].
   double decisionComX() const { return takeoff_com_x_ - scenario_.decision_margin_m; }
   /// Whether the robot jumped (take-off started) during the run.

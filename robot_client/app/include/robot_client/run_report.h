@@ -35,6 +35,10 @@ struct TruthMetrics {
   double takeoff_speed = std::numeric_limits<double>::quiet_NaN();  ///< CoM vx at take-off
   double touchdown_dx = std::numeric_limits<double>::quiet_NaN();   ///< CoM x travel in the jump
   double takeoff_com_x = std::numeric_limits<double>::quiet_NaN();
+  /// CoM velocity when the last wheel left the ground (start of FLIGHT) [m/s].
+  double liftoff_vx = std::numeric_limits<double>::quiet_NaN();
+  double liftoff_vz = std::numeric_limits<double>::quiet_NaN();
+  double liftoff_pitch_rate = std::numeric_limits<double>::quiet_NaN();  ///< nose-up [rad/s]
   bool body_hit_ground = false;      ///< base or a leg link touched the terrain
   double final_x = 0.0;              ///< base x at the end [m]
   double final_front_wheel_x = 0.0;  ///< front wheels' foremost x at the end [m]
@@ -55,6 +59,12 @@ struct RunSummary {
   double planned_apex_base_z = std::numeric_limits<double>::quiet_NaN();
   double planned_clearance = std::numeric_limits<double>::quiet_NaN();
   double planned_touchdown_dx = std::numeric_limits<double>::quiet_NaN();
+  /// The service's own verification (Simbody, from the plan's ideal initial state).
+  planner::JumpOutcome service_verified;
+  bool service_verified_available = false;
+  double planned_liftoff_vx = std::numeric_limits<double>::quiet_NaN();
+  double planned_liftoff_vz = std::numeric_limits<double>::quiet_NaN();
+  double planned_liftoff_pitch_rate = std::numeric_limits<double>::quiet_NaN();
   TruthMetrics truth;
   std::array<double, model::kJointsPerLeg> max_torque{};  ///< per joint kind [Nm]
   std::array<double, model::kJointsPerLeg> torque_limit{};

@@ -46,6 +46,9 @@ class LocomotionController {
   /// bad settings.
   LocomotionController(const model::RobotModel& robot, const LocomotionSettings& settings);
 
+  /// Drops the solver's iterate: the next updateMpc() starts from the measured state (after a
+  /// pause, e.g. a jump, the old iterate describes a state long gone). MPC thread.
+  void restart() { solver_.reset(); }
   /// Speed command the reference follows from now on.
   void setSpeedCommand(const SpeedCommand& command) { command_ = command; }
   /// Runs `gait` from `t_start` on.
