@@ -247,6 +247,15 @@ void PlanningCore::submitHit(PlanRequest request, CacheKey key, CachedSolution s
       startComputation(request, key, call, BoundedExecutor::Lane::Internal);
       return;
     }
+    if (solution.feasible && !o.answer.evaluation.feasible) {
+      // Feasible where it was computed, infeasible at this caller's state (same bins, a
+      // slightly different v0 or posture, and a margin that was nearly zero): plan for this
+      // state instead of handing out a plan that would be refused.
+      spdlog::debug("cache hit {} infeasible at the request's state ({}); planning", key.hex(),
+                    o.answer.summary);
+      startComputation(request, key, call, BoundedExecutor::Lane::Internal);
+      return;
+    }
     finish(call, std::move(o));
   };
   task.abandon = [this, call] {
@@ -323,9 +332,12 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
       stored && (!c->want_verify || stored->verification.status != VerificationStatus::NotRun)) {
     try {
       PlanAnswer a = answerFromSolution(*stored, request, c->key, PlanSource::CacheHit);
-      hits_.fetch_add(1);
-      finishComputation(c, std::nullopt, std::move(a), stored, PlanSource::Coalesced);
-      return;
+      // Feasible where it was computed but not at this state (see submitHit): plan below.
+      if (!stored->feasible || a.evaluation.feasible) {
+        hits_.fetch_add(1);
+        finishComputation(c, std::nullopt, std::move(a), stored, PlanSource::Coalesced);
+        return;
+      }
     } catch (const std::exception&) {
       // Not valid at this state: plan below.
     }

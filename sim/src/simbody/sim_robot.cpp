@@ -526,7 +526,14 @@ void SimRobot::advance() {
   ++m.step_count;
   const double t_next = static_cast<double>(m.step_count) * m.settings.control_period_s;
   try {
-    m.integ->stepTo(t_next);
+    // stepTo() may return before t_next: right after initialize() it returns at once with
+    // StartOfSimulation, without advancing (the first period after reset() used to be lost and
+    // the next one integrated twice). Step until the period is really covered.
+    for (int attempt = 0; m.integ->getTime() < t_next - 1e-12; ++attempt) {
+      if (attempt == 100)
+        throw std::runtime_error("the integrator did not reach the end of the period");
+      m.integ->stepTo(t_next);
+    }
   } catch (const std::exception& e) {
     throw std::runtime_error("SimRobot: integration failed at t = " +
                              std::to_string(m.state().getTime()) + " s: " + e.what());
