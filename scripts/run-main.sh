@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# The main job: installs the dependencies, builds the release preset, then plans the paper's
-# jumps with the DE + Ipopt planner and verifies each plan in the Simbody simulation (sim_jump),
-# printing prediction and simulation side by side and writing telemetry and figures to out/.
-# Exit status of sim_jump: 0 verified, 3 infeasible target or failed verification (reported),
-# 2 error; only an error stops this script.
+# The main job: installs the dependencies, builds the release preset, then runs the end-to-end
+# simulated jumps (scripts/run-e2e.sh: planner_server on loopback + robot_client on the Simbody
+# robot, forward over the 0.25 m wall and vertical), and finally plans the paper's presets and
+# verifies each in Simbody side by side (sim_jump). Telemetry and figures go to out/.
+# Exit status: 0 all end-to-end runs succeeded, 3 one did not (the summary says why), 2 error.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/install-deps.sh
@@ -11,8 +11,9 @@ cmake --preset release
 cmake --build --preset release
 mkdir -p out
 status=0
+bash scripts/run-e2e.sh build/release 1 || status=$?
 for task in forward_hw vertical forward; do
-  echo "=== $task ==="
+  echo "=== sim_jump $task ==="
   rc=0
   build/release/bin/sim_jump --task "$task" --csv "out/$task.csv" --plot "out/$task.png" || rc=$?
   if [ "$rc" -eq 2 ]; then status=2; fi

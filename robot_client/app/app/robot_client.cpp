@@ -5,6 +5,7 @@
 //
 // Exit status: 0 the scenario did what it should (jumped, cleared, landed and stopped), 3 it did
 // not (aborted, fell, or hit the wall; the summary says why), 2 an error.
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 #include <CLI/CLI.hpp>
 
@@ -113,6 +114,7 @@ int run(const Options& opt) {
   const auto wall_start = std::chrono::steady_clock::now();
   wj::rt::PeriodicTimer timer(
       std::chrono::nanoseconds(static_cast<long>(settings.loop.period_s * 1e9)));
+  timer.setSpin(std::chrono::nanoseconds(static_cast<long>(settings.loop.spin_us * 1e3)));
   timer.start();
   double stop_at = scenario.duration_s;
   while (loop.time() < stop_at) {
@@ -165,8 +167,11 @@ int main(int argc, char** argv) {
   CLI::App app{"robot_client: the wheeled-legged robot's on-board control program"};
   Options opt;
   app.add_option("--backend", opt.backend, "sim | can")->check(CLI::IsMember({"sim", "can"}));
-  app.add_option("--config", opt.config, "robot client YAML (config/robot_client.yaml)")
-      ->required();
+  app.add_option("--config", opt.config, "robot client YAML (config/robot_client.yaml)");
+  std::string check_path;
+  app.add_option(
+      "--check-config", check_path,
+      "validate a robot client YAML (strict reader and ranges) and exit: 0 valid, 2 not");
   app.add_option("--planner", opt.planner, "planning service HOST:PORT (none: no jumps)");
   app.add_option("--scenario", opt.scenario, "forward | vertical")
       ->check(CLI::IsMember({"forward", "vertical"}));
@@ -184,6 +189,22 @@ int main(int argc, char** argv) {
                  "can backend: one interface per leg, LF RF LH RH")
       ->expected(4);
   CLI11_PARSE(app, argc, argv);
+  // Logs (transitions, warnings) go to stderr; stdout carries the summary (--json: only it).
+  spdlog::set_default_logger(spdlog::stderr_color_mt("robot_client"));
+  if (!check_path.empty()) {
+    try {
+      (void)rc::loadClientSettings(check_path);
+      std::printf("%s: valid\n", check_path.c_str());
+      return 0;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "robot_client: %s\n", e.what());
+      return 2;
+    }
+  }
+  if (opt.config.empty()) {
+    std::fprintf(stderr, "robot_client: --config is required\n");
+    return 2;
+  }
   try {
     return run(opt);
   } catch (const std::exception& e) {

@@ -54,8 +54,9 @@ wj::model::SensorData standingSensors(const wj::nmpc::LocomotionController& c) {
 }
 
 template <class Body>
-wj::rt::LoopStats runTimed(double seconds, Body&& body) {
+wj::rt::LoopStats runTimed(double seconds, double spin_us, Body&& body) {
   wj::rt::PeriodicTimer timer(std::chrono::milliseconds(1));
+  timer.setSpin(std::chrono::nanoseconds(static_cast<long>(spin_us * 1e3)));
   wj::rt::LoopStats stats(std::chrono::milliseconds(1));
   const long n = std::lround(seconds * 1000.0);
   timer.start();
@@ -80,9 +81,12 @@ int main(int argc, char** argv) {
   double seconds = 10.0;
   std::string config = std::string(WJ_CONFIG_DIR_DEFAULT) + "/robot_client.yaml";
   bool with_mpc = true;
+  double spin_us = 0.0;
   app.add_option("--seconds", seconds, "length of each run [s]")->check(CLI::Range(1.0, 600.0));
   app.add_option("--config", config, "robot client YAML");
   app.add_flag("!--no-mpc", with_mpc, "do not run the NMPC thread beside the loop");
+  app.add_option("--spin-us", spin_us, "busy-wait this long before each deadline [us]")
+      ->check(CLI::Range(0.0, 900.0));
   CLI11_PARSE(app, argc, argv);
 
   const wj::model::RobotModel robot = wj::model::RobotModel::loadDefault();
@@ -100,13 +104,13 @@ int main(int argc, char** argv) {
   const wj::rt::RtSetupReport rt = wj::rt::setupRealtime(rts);
 
   // Peer: the same timer, empty body.
-  const wj::rt::LoopStats empty = runTimed(seconds, [] {});
+  const wj::rt::LoopStats empty = runTimed(seconds, spin_us, [] {});
 
   loop.initialise(Eigen::Vector3d(0.0, 0.0, 0.35));
   if (with_mpc) mpc.start();
   rc::TelemetrySample sample;
   rc::Transition tr;
-  const wj::rt::LoopStats full = runTimed(seconds, [&] {
+  const wj::rt::LoopStats full = runTimed(seconds, spin_us, [&] {
     loop.step();
     // The drain thread's work, done here cheaply so that the rings never fill.
     while (loop.telemetry().tryPop(sample)) {
@@ -119,6 +123,7 @@ int main(int argc, char** argv) {
   nlohmann::json j;
   j["seconds"] = seconds;
   j["nmpc_thread"] = with_mpc;
+  j["spin_us"] = spin_us;
   j["mpc_cycles"] = mpc.counters().cycles;
   j["realtime"] = {
       {"sched_fifo", rt.fifo}, {"mlockall", rt.memory_locked}, {"warnings", rt.warnings}};

@@ -132,6 +132,7 @@ void ClientSettings::validate() const {
   inRange(loop.cpu, -1, 1023, "loop.cpu");
   inRange(loop.watchdog_timeout_s, 2.0 * loop.period_s, 1.0, "loop.watchdog_timeout_s");
   inRange(loop.telemetry_decimation, 1, 1000, "loop.telemetry_decimation");
+  inRange(loop.spin_us, 0.0, 0.9e6 * loop.period_s, "loop.spin_us");
   inRange(safety.max_roll_rad, 0.05, 1.5, "safety.max_roll_rad");
   inRange(safety.max_pitch_rad, 0.05, 1.5, "safety.max_pitch_rad");
   inRange(safety.damping_kd, 0.0, 20.0, "safety.damping_kd");
@@ -166,6 +167,7 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     s.loop.cpu = m.integer("cpu");
     s.loop.watchdog_timeout_s = m.number("watchdog_timeout_s");
     s.loop.telemetry_decimation = m.integer("telemetry_decimation");
+    s.loop.spin_us = m.number("spin_us");
     m.finish();
   }
   {

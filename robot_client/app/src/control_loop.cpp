@@ -55,6 +55,7 @@ void ControlLoop::initialise(const Eigen::Vector3d& p_WB) {
   Eigen::Matrix<double, model::kNumJoints, 1> q;
   for (int j = 0; j < model::kNumJoints; ++j) q[j] = sensors_.joints[j].q;
   com_offset_B_ = robot_.calcCompositeInertia(q).com;
+  for (int j = 0; j < model::kNumJoints; ++j) q_start_[j] = q[j];
   estimator_.reset(p_WB, Eigen::Vector3d::Zero());
   t_ = sensors_.t;
   k_ = 0;
@@ -200,6 +201,16 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
     ++mpc_input_.sequence;
     mpc_.post(mpc_input_);
     last_mpc_k_ = k_;
+  }
+  if (mpc_.counters().cycles == 0) {
+    // Free-running NMPC that has not published a policy yet: hold the start posture.
+    for (int j = 0; j < model::kNumJoints; ++j) {
+      const bool wheel = isWheel(j);
+      commands_[j] = {wheel ? sensors_.joints[j].q : q_start_[j], 0.0,
+                      wheel ? 0.0 : settings_.executor.landing_kp,
+                      wheel ? settings_.executor.wheel_kd : settings_.executor.landing_kd, 0.0};
+    }
+    return;
   }
   controller_.calcCommands(t_, x_, sensors_, commands_);
 }

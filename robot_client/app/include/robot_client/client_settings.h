@@ -23,6 +23,8 @@ struct LoopSettings {
   int cpu = -1;                      ///< CPU the loop is pinned to, -1 = no pinning
   double watchdog_timeout_s = 0.02;  ///< loop silent this long -> damping mode [s]
   int telemetry_decimation = 1;      ///< one telemetry sample every N periods
+  /// Busy-wait this long before each deadline instead of sleeping through it [µs] (0 = sleep).
+  double spin_us = 0.0;
 };
 
 /// Limits whose violation ends in damping mode or a stop.

@@ -138,6 +138,7 @@ class ControlLoop {
   std::atomic<bool> watchdog_{false};
   int journal_seen_ = 0;
   std::array<double, model::kNumJoints> max_abs_tau_{};
+  std::array<double, model::kNumJoints> q_start_{};  // posture at initialise()
   TelemetryRing telemetry_;
   TransitionRing transitions_;
 };

@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <stdexcept>
 
 namespace wj::rt {
 
@@ -27,6 +28,14 @@ class PeriodicTimer {
   /// a burst of catch-up iterations.
   void waitNext();
 
+  /// Busy-wait the last `spin` before each deadline instead of sleeping through it (0, the
+  /// default: sleep to the deadline). Trades that much CPU per period for a wake-up that does
+  /// not depend on the scheduler's latency. Must be shorter than the period.
+  void setSpin(std::chrono::nanoseconds spin) {
+    if (spin.count() < 0 || spin >= period_)
+      throw std::invalid_argument("PeriodicTimer: spin must be in [0, period)");
+    spin_ = spin;
+  }
   /// Nominal period.
   std::chrono::nanoseconds period() const { return period_; }
   /// Deadline of the current period (the one waitNext() last waited for; after re-phasing, the
@@ -46,6 +55,7 @@ class PeriodicTimer {
 
  private:
   std::chrono::nanoseconds period_;
+  std::chrono::nanoseconds spin_{0};
   MonotonicClock::time_point deadline_{};
   MonotonicClock::time_point wake_{};
   std::chrono::nanoseconds lateness_{0};

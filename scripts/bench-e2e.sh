@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Benchmark of the end-to-end forward jump: N sensor-noise seeds of robot_client (simulated
+# robot behind emulated CAN frames) against one planner_server on loopback with an empty cache,
+# then the vertical jump. Prints one JSON document: per-seed outcome and the totals.
+# Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${1:-build/release}
+SEEDS=${2:-10}
+shift $(( $# > 2 ? 2 : $# ))
+BIN=$BUILD/bin
+WORK=$(mktemp -d)
+PORT=${WJ_BENCH_PORT:-50161}
+sed -e "s|^listen: .*|listen: \"127.0.0.1:${PORT}\"|" \
+    -e "s|^  path: .*|  path: \"${WORK}/plan_cache.sqlite\"|" \
+    config/planner_server.yaml > "$WORK/planner_server.yaml"
+"$BIN/planner_server" --config "$WORK/planner_server.yaml" > "$WORK/server.log" 2>&1 &
+SERVER=$!
+trap 'kill $SERVER 2>/dev/null; wait $SERVER 2>/dev/null || true; rm -rf "$WORK"' EXIT
+for _ in $(seq 1 100); do
+  "$BIN/planner_cli" --target "127.0.0.1:${PORT}" --deadline-ms 500 stats > /dev/null 2>&1 && break
+  sleep 0.1
+done
+for seed in $(seq 1 "$SEEDS"); do
+  "$BIN/robot_client" --backend sim --via-can --config config/robot_client.yaml \
+    --planner "127.0.0.1:${PORT}" --scenario forward --seed "$seed" --json "$@" \
+    > "$WORK/forward_$seed.json" 2> "$WORK/forward_$seed.log" || true
+done
+"$BIN/robot_client" --backend sim --config config/robot_client.yaml \
+  --planner "127.0.0.1:${PORT}" --scenario vertical --seed 1 --json "$@" \
+  > "$WORK/vertical.json" 2> "$WORK/vertical.log" || true
+/usr/bin/python3 - "$WORK" "$SEEDS" <<'PY'
+import json, sys, statistics
+work, seeds = sys.argv[1], int(sys.argv[2])
+runs = []
+for s in range(1, seeds + 1):
+    try:
+        d = json.load(open(f"{work}/forward_{s}.json"))
+    except Exception as e:
+        runs.append({"seed": s, "error": str(e)}); continue
+    sim = d.get("simulated", {})
+    runs.append({"seed": s, "success": d["success"], "verdict": d["verdict"],
+                 "takeoff_speed_m_s": sim.get("takeoff_speed_m_s"),
+                 "apex_base_z_m": sim.get("apex_base_z_m"),
+                 "min_wall_clearance_m": sim.get("min_wall_clearance_m"),
+                 "planned_clearance_m": d["plan"]["predicted_clearance_m"],
+                 "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"]})
+ok = [r for r in runs if r.get("success")]
+cleared = [r for r in runs if (r.get("min_wall_clearance_m") or -1) > 0 and r.get("apex_base_z_m")]
+v = json.load(open(f"{work}/vertical.json"))
+lat = [r["plan_latency_ms"] for r in runs if r.get("plan_latency_ms") is not None]
+print(json.dumps({
+    "forward": {"seeds": seeds, "success": len(ok), "cleared_wall": len(cleared),
+                "clearance_m": {"min": min((r["min_wall_clearance_m"] for r in cleared), default=None),
+                                "median": statistics.median([r["min_wall_clearance_m"] for r in cleared]) if cleared else None},
+                "plan_latency_ms": {"median": statistics.median(lat) if lat else None,
+                                    "max": max(lat) if lat else None},
+                "runs": runs},
+    "vertical": {"success": v["success"], "verdict": v["verdict"],
+                 "apex_base_z_m": v.get("simulated", {}).get("apex_base_z_m"),
+                 "planned_apex_base_z_m": v["plan"]["predicted_apex_base_z_m"],
+                 "paper_hardware_m": 0.5, "paper_target_m": 0.7}}, indent=2))
+PY

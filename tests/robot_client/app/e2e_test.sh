@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# End-to-end tests of robot_client against a real planner_server on loopback (ctest "app.e2e.*").
+#   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort
+# forward: run-up, plan, jump over the 0.25 m wall through emulated CAN frames, land, stop.
+# vertical: the standing jump. abort: the service is unreachable; the robot must not jump and
+# must stop before the wall. The test configuration gives the planner a longer deadline and the
+# wall more run-up room than the shipped one, because CI machines are slower and shared.
+set -euo pipefail
+BIN=$1
+SRC=$2
+CASE=$3
+WORK=$(mktemp -d)
+SERVER=""
+cleanup() {
+  if [ -n "$SERVER" ]; then kill "$SERVER" 2>/dev/null || true; wait "$SERVER" 2>/dev/null || true; fi
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+PORT=$(( 52000 + RANDOM % 2000 ))
+sed -e "s|^listen: .*|listen: \"127.0.0.1:${PORT}\"|" -e "s|^  path: .*|  path: \"\"|" \
+  "$SRC/config/planner_server.yaml" > "$WORK/server.yaml"
+sed -e "s|^  deadline_s: .*|  deadline_s: 6.0|" \
+    -e "s|wall: {enabled: true, x_m: 14.0|wall: {enabled: true, x_m: 20.0|" \
+  "$SRC/config/robot_client.yaml" > "$WORK/client.yaml"
+grep -q "x_m: 20.0" "$WORK/client.yaml" || { echo "could not move the wall in the test config"; exit 1; }
+
+target="127.0.0.1:${PORT}"
+if [ "$CASE" != abort ]; then
+  "$BIN/planner_server" --config "$WORK/server.yaml" > "$WORK/server.log" 2>&1 &
+  SERVER=$!
+  for _ in $(seq 1 100); do
+    "$BIN/planner_cli" --target "$target" --deadline-ms 500 stats > /dev/null 2>&1 && break
+    sleep 0.1
+  done
+else
+  target="127.0.0.1:1"  # nothing listens there
+fi
+
+scenario=$CASE
+extra=()
+case "$CASE" in
+  forward) extra=(--via-can) ;;
+  abort) scenario=forward ;;
+esac
+rc=0
+"$BIN/robot_client" --backend sim "${extra[@]}" --config "$WORK/client.yaml" --planner "$target" \
+  --scenario "$scenario" --seed 3 --json > "$WORK/out.json" 2> "$WORK/client.log" || rc=$?
+cat "$WORK/out.json"
+/usr/bin/python3 - "$WORK/out.json" "$CASE" "$rc" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1])); case = sys.argv[2]; rc = int(sys.argv[3])
+def check(cond, what):
+    if not cond:
+        print("FAILED:", what); sys.exit(1)
+if case == "abort":
+    check(rc == 3, f"exit status 3 expected, got {rc}")
+    check(not d["jumped"], "the robot jumped without a plan")
+    check(d["abort_reason"] == "planner unreachable or failed", d["abort_reason"])
+    check("stopped before the wall" in d["verdict"], d["verdict"])
+    check(d["final_mode"] == "STAND", d["final_mode"])
+else:
+    check(rc == 0, f"exit status 0 expected, got {rc}: {d['verdict']}")
+    check(d["success"] and d["jumped"], d["verdict"])
+    sim = d["simulated"]
+    check(sim["body_touched_ground"] is False, "the body touched the ground")
+    check(abs(sim["apex_base_z_m"] - d["plan"]["predicted_apex_base_z_m"]) < 0.03,
+          "simulated apex more than 3 cm from the plan")
+    if case == "forward":
+        check(sim["min_wall_clearance_m"] > 0.0, "hit the wall")
+        check(d["can"].find("dropped 0") >= 0 and d["can"].find("motor fault no") >= 0, d["can"])
+    for kind, t in d["max_torque"].items():
+        check(t["max_nm"] <= t["limit_nm"] * 1.02, f"{kind} torque {t['max_nm']} beyond {t['limit_nm']}")
+print("OK", case)
+PY
