@@ -1,5 +1,7 @@
 #include "sim/settings.h"
 
+#include "robot_model/strict_yaml.h"
+
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -21,50 +23,8 @@ constexpr double kFar = 1.0e3;
 // How deep boxes reach below the ground, so that no seam opens between box and ground.
 constexpr double kBuried = 1.0;
 
-// A YAML map whose keys must all be read exactly once: unknown or missing keys are errors.
-class StrictMap {
- public:
-  StrictMap(const YAML::Node& node, std::string path, std::string origin)
-      : node_(node), path_(std::move(path)), origin_(std::move(origin)) {
-    if (!node_.IsMap()) fail("expected a map");
-  }
-
-  double number(const std::string& key) { return get(key).as<double>(); }
-  bool flag(const std::string& key) { return get(key).as<bool>(); }
-  std::string text(const std::string& key) { return get(key).as<std::string>(); }
-  std::uint64_t unsignedInt(const std::string& key) { return get(key).as<std::uint64_t>(); }
-  YAML::Node node(const std::string& key) { return get(key); }
-  StrictMap map(const std::string& key) { return StrictMap(get(key), path_ + key + ".", origin_); }
-
-  /// Fails if a key of the map was never read.
-  void finish() const {
-    for (const auto& kv : node_) {
-      const auto key = kv.first.as<std::string>();
-      if (!read_.count(key)) fail("unknown key '" + path_ + key + "'");
-    }
-  }
-  [[noreturn]] void fail(const std::string& what) const {
-    throw std::runtime_error("sim settings " + origin_ + ": " + what);
-  }
-
- private:
-  YAML::Node get(const std::string& key) {
-    const YAML::Node n = node_[key];
-    if (!n) {
-      std::string present;
-      for (const auto& kv : node_)
-        present += (present.empty() ? "" : ", ") + kv.first.as<std::string>();
-      fail("missing key '" + path_ + key + "' (keys present: " + present + ")");
-    }
-    read_.insert(key);
-    return n;
-  }
-
-  YAML::Node node_;
-  std::string path_;
-  std::string origin_;
-  std::set<std::string> read_;
-};
+// A YAML map whose keys must all be read exactly once (robot_model/strict_yaml.h).
+using StrictMap = StrictYamlMap;
 
 template <class Enum, std::size_t N>
 Enum parseEnum(StrictMap& map, const std::string& key, const std::array<Enum, N>& values) {
@@ -206,7 +166,7 @@ SimSettings parseSimSettings(std::string_view yaml_text, const std::string& orig
   }
   SimSettings s;
   try {
-    StrictMap top(root, "", origin);
+    StrictMap top(root, "", "sim settings " + origin);
     s.control_period_s = top.number("control_period_s");
     s.gravity_m_s2 = top.number("gravity_m_s2");
     s.actuator_update =
@@ -253,7 +213,7 @@ SimSettings parseSimSettings(std::string_view yaml_text, const std::string& orig
     if (!boxes.IsSequence()) t.fail("key 'terrain.boxes' must be a list");
     s.terrain.boxes.clear();
     for (std::size_t k = 0; k < boxes.size(); ++k) {
-      StrictMap b(boxes[k], "terrain.boxes[" + std::to_string(k) + "].", origin);
+      StrictMap b(boxes[k], "terrain.boxes[" + std::to_string(k) + "].", "sim settings " + origin);
       Box box;
       box.min = parseVector3(b, b.node("min"), "min");
       box.max = parseVector3(b, b.node("max"), "max");
