@@ -143,6 +143,13 @@ void ClientSettings::validate() const {
   inRange(contact.settle_s, 0.0, 1.0, "contact.settle_s");
   inRange(planner.deadline_s, 0.01, 60.0, "planner.deadline_s");
   inRange(static_cast<double>(planner.max_evaluations), 0.0, 1e7, "planner.max_evaluations");
+  if (planner.tls && planner.tls_root_ca_file.empty())
+    throw std::invalid_argument(
+        "robot client settings: planner.tls.root_ca_file must name the CA file when "
+        "planner.tls.enabled is true");
+  if (planner.tls_cert_file.empty() != planner.tls_key_file.empty())
+    throw std::invalid_argument(
+        "robot client settings: planner.tls.cert_file and planner.tls.key_file go together");
   executor.validate();
   validateScenario(forward, "forward.");
   validateScenario(vertical, "vertical.");
@@ -193,6 +200,13 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     s.planner.seed = m.unsignedInt("seed");
     s.planner.skip_verification = m.flag("skip_verification");
     s.planner.round_robin = m.flag("round_robin");
+    StrictYamlMap tls = m.map("tls");
+    s.planner.tls = tls.flag("enabled");
+    s.planner.tls_root_ca_file = tls.text("root_ca_file");
+    s.planner.tls_cert_file = tls.text("cert_file");
+    s.planner.tls_key_file = tls.text("key_file");
+    s.planner.tls_server_name = tls.text("server_name");
+    tls.finish();
     m.finish();
   }
   s.executor = parseExecutor(root.map("executor"));

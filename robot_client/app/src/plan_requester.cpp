@@ -173,6 +173,11 @@ PlanRequester::PlanRequester(const std::string& target, const PlannerConnection&
   options.target = target;
   options.load_balancing =
       connection.round_robin ? client::LoadBalancing::RoundRobin : client::LoadBalancing::PickFirst;
+  options.use_tls = connection.tls;
+  options.tls.root_ca_file = connection.tls_root_ca_file;
+  options.tls.cert_chain_file = connection.tls_cert_file;
+  options.tls.private_key_file = connection.tls_key_file;
+  options.tls.target_name_override = connection.tls_server_name;
   options.default_deadline =
       std::chrono::milliseconds(static_cast<long>(connection.deadline_s * 1000.0));
   client_ = std::make_unique<client::PlannerClient>(options);

@@ -73,6 +73,29 @@ TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {
   EXPECT_THROW((void)parseClientSettings(text, "x.yaml"), std::invalid_argument);
 }
 
+TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
+  const std::string on = replace(shippedConfig(), "    enabled: false\n    root_ca_file",
+                                 "    enabled: true\n    root_ca_file");
+  try {
+    (void)parseClientSettings(on, "x.yaml");
+    FAIL() << "TLS without a CA accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("planner.tls.root_ca_file"), std::string::npos)
+        << e.what();
+  }
+  const std::string cert_only =
+      replace(shippedConfig(), "cert_file: \"\"", "cert_file: \"robot.pem\"");
+  EXPECT_THROW((void)parseClientSettings(cert_only, "x.yaml"), std::invalid_argument);
+  const std::string full =
+      replace(replace(replace(on, "root_ca_file: \"\"", "root_ca_file: \"ca.pem\""),
+                      "cert_file: \"\"", "cert_file: \"robot.pem\""),
+              "key_file: \"\"", "key_file: \"robot.key\"");
+  const ClientSettings s = parseClientSettings(full, "x.yaml");
+  EXPECT_TRUE(s.planner.tls);
+  EXPECT_EQ(s.planner.tls_root_ca_file, "ca.pem");
+  EXPECT_EQ(s.planner.tls_key_file, "robot.key");
+}
+
 TEST(ClientSettings, BadEnumListsTheChoices) {
   const std::string text = replace(shippedConfig(), "event: touchdown", "event: landing");
   try {

@@ -56,6 +56,13 @@ struct PlannerConnection {
   /// Spread calls over every address the target resolves to (several service replicas
   /// behind a headless Service, docs/scaling.md) instead of sticking to the first.
   bool round_robin = false;
+  /// TLS to the service (the workstation profile requires mutual TLS; docs/service.md).
+  /// Off: plaintext, which the service accepts on loopback only. Files are PEM.
+  bool tls = false;
+  std::string tls_root_ca_file;  ///< CA that signed the service's certificate
+  std::string tls_cert_file;     ///< this robot's certificate ("" = no client certificate)
+  std::string tls_key_file;      ///< its key
+  std::string tls_server_name;   ///< expected name in the service's certificate ("" = host)
 };
 
 /// What a scenario does. Forward: roll up to `run_up_speed_m_s`, request a plan, jump over the
