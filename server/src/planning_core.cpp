@@ -244,6 +244,7 @@ void PlanningCore::submitHit(PlanRequest request, CacheKey key, CachedSolution s
       // The stored u is not valid at this caller's state (rare, at a bin edge): compute.
       spdlog::debug("cache hit {} not valid at the request's state ({}); planning", key.hex(),
                     e.what());
+      hits_.fetch_sub(1);
       startComputation(request, key, call, BoundedExecutor::Lane::Internal);
       return;
     }
@@ -253,6 +254,7 @@ void PlanningCore::submitHit(PlanRequest request, CacheKey key, CachedSolution s
       // state instead of handing out a plan that would be refused.
       spdlog::debug("cache hit {} infeasible at the request's state ({}); planning", key.hex(),
                     o.answer.summary);
+      hits_.fetch_sub(1);  // counted as a hit on arrival; the computation counts its miss
       startComputation(request, key, call, BoundedExecutor::Lane::Internal);
       return;
     }
