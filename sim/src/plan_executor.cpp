@@ -8,10 +8,6 @@ namespace wj::sim {
 
 namespace {
 
-bool isWheel(int joint) {
-  return joint % model::kJointsPerLeg == static_cast<int>(model::JointKind::Wheel);
-}
-
 void requirePositive(double v, const char* name) {
   if (!(v > 0.0) || !std::isfinite(v))
     throw std::invalid_argument(std::string("executor settings: ") + name + " must be > 0");
@@ -97,8 +93,8 @@ void PlanExecutor::sample(double t, model::JointCommands& out) const {
     c.q_des = (1.0 - a) * plan_.q(k0, j) + a * plan_.q(k0 + 1, j);
     c.qd_des = (1.0 - a) * plan_.qd(k0, j) + a * plan_.qd(k0 + 1, j);
     c.tau_ff = (1.0 - a) * plan_.tau(k0, j) + a * plan_.tau(k0 + 1, j);
-    c.kp = isWheel(j) ? 0.0 : settings_.takeoff_kp;
-    c.kd = isWheel(j) ? settings_.wheel_kd : settings_.takeoff_kd;
+    c.kp = model::isWheel(j) ? 0.0 : settings_.takeoff_kp;
+    c.kd = model::isWheel(j) ? settings_.wheel_kd : settings_.takeoff_kd;
   }
 }
 
@@ -146,7 +142,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       for (int j = 0; j < model::kNumJoints; ++j) {
         model::JointCommand& c = out[j];
         c.tau_ff = 0.0;
-        if (isWheel(j)) {
+        if (model::isWheel(j)) {
           c = {0.0, wheel_speed_, 0.0, settings_.flight_wheel_kd, 0.0};
         } else {
           c.kp = settings_.flight_kp;
@@ -163,7 +159,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       const double wheel_speed = v0 > 0.0 ? wheel_speed_ * v / v0 : 0.0;
       for (int j = 0; j < model::kNumJoints; ++j) {
         model::JointCommand& c = out[j];
-        if (isWheel(j))
+        if (model::isWheel(j))
           c = {0.0, wheel_speed, 0.0, settings_.wheel_kd, 0.0};
         else
           c = {plan_.q_landing[j], 0.0, settings_.landing_kp, settings_.landing_kd,

@@ -9,7 +9,7 @@
 #include "can/can_robot.h"
 #include "can/can_settings.h"
 #include "can/sim_via_can.h"
-#include "nmpc/types.h"
+#include "nmpc_sim/closed_loop.h"
 #include "robot_client/control_loop.h"
 #include "robot_client/run_report.h"
 #include "sim/sim_robot.h"
@@ -28,18 +28,6 @@ sim::SimSettings simSettings(const ScenarioSettings& scenario, std::uint64_t see
                                                      scenario.wall_height_m)
                                 : sim::Terrain::flat();
   return s;
-}
-
-// Standing still at the origin in the NMPC's nominal posture, wheels on the ground.
-sim::RobotPlacement standingPlacement(const model::RobotModel& robot,
-                                      const nmpc::LocomotionController& c,
-                                      const sim::Terrain& terrain) {
-  sim::InitialState init;
-  for (int leg = 0; leg < nmpc::kNumLegs; ++leg)
-    for (int j = 0; j < nmpc::kLegDofs; ++j)
-      init.q[nmpc::robotJointIndex(leg, j)] = c.model().nominalJoints()[nmpc::kLegDofs * leg + j];
-  init.com.z = c.model().settings().nominal_base_height_m + c.model().comOffset().z() - 1e-3;
-  return sim::calcPlacement(robot, init, terrain);
 }
 
 // A forward range sensor on the simulated robot: the true distance from the base origin to the
@@ -67,70 +55,58 @@ class SimRangeSensor final : public RangeSensor {
   sim::GroundTruth gt_;
 };
 
-class SimBackend final : public Backend {
+// The Simbody robot, driven directly or through the in-process CAN bus (SimViaCan), standing
+// in the NMPC's nominal posture at the origin.
+class SimBackend final : public Backend, public FaultSource {
  public:
   SimBackend(const model::RobotModel& robot, const nmpc::LocomotionController& controller,
-             const ScenarioSettings& scenario, std::uint64_t seed, bool noise)
-      : sim_(robot, simSettings(scenario, seed, noise)) {
-    placement_ = standingPlacement(robot, controller, sim_.settings().terrain);
-    sim_.reset(placement_);
-    if (scenario.has_wall) range_.emplace(sim_, scenario.wall_x_m, seed);
+             const ScenarioSettings& scenario, std::uint64_t seed, bool noise, bool via_can) {
+    const sim::SimSettings settings = simSettings(scenario, seed, noise);
+    if (via_can)
+      via_can_.emplace(robot, settings, can::loadCanRobotSettings(can::defaultCanConfigFile()));
+    else
+      direct_.emplace(robot, settings);
+    placement_ = nmpc::sim_loop::standingPlacement(robot, controller, settings.terrain);
+    if (via_can_)
+      via_can_->reset(placement_);
+    else
+      direct_->reset(placement_);
+    if (scenario.has_wall) range_.emplace(sim(), scenario.wall_x_m, seed);
   }
   RangeSensor* rangeSensor() override { return range_ ? &*range_ : nullptr; }
-  model::RobotInterface& robot() override { return sim_; }
-  const FaultSource* faults() const override { return nullptr; }
+  model::RobotInterface& robot() override {
+    return via_can_ ? static_cast<model::RobotInterface&>(*via_can_) : *direct_;
+  }
+  const FaultSource* faults() const override { return via_can_ ? this : nullptr; }
+  bool hasFault() const override { return via_can_ && via_can_->canRobot().hasFault(); }
   Eigen::Vector3d startPosition() const override { return placement_.X_WB.translation(); }
   void observe(const ControlLoop& loop, RunRecorder& recorder) override {
-    sim_.calcGroundTruth(gt_, false);
+    sim().calcGroundTruth(gt_, false);
     recorder.onTruth(gt_, loop);
   }
-  std::string name() const override { return "sim"; }
-
- private:
-  sim::SimRobot sim_;
-  sim::RobotPlacement placement_;
-  sim::GroundTruth gt_;
-  std::optional<SimRangeSensor> range_;
-};
-
-class SimViaCanBackend final : public Backend, public FaultSource {
- public:
-  SimViaCanBackend(const model::RobotModel& robot, const nmpc::LocomotionController& controller,
-                   const ScenarioSettings& scenario, std::uint64_t seed, bool noise)
-      : robot_(robot, simSettings(scenario, seed, noise),
-               can::loadCanRobotSettings(can::defaultCanConfigFile())) {
-    placement_ = standingPlacement(robot, controller, robot_.sim().settings().terrain);
-    robot_.reset(placement_);
-    if (scenario.has_wall) range_.emplace(robot_.sim(), scenario.wall_x_m, seed);
-  }
-  RangeSensor* rangeSensor() override { return range_ ? &*range_ : nullptr; }
-  model::RobotInterface& robot() override { return robot_; }
-  const FaultSource* faults() const override { return this; }
-  bool hasFault() const override { return robot_via().canRobot().hasFault(); }
-  Eigen::Vector3d startPosition() const override { return placement_.X_WB.translation(); }
-  void observe(const ControlLoop& loop, RunRecorder& recorder) override {
-    robot_.sim().calcGroundTruth(gt_, false);
-    recorder.onTruth(gt_, loop);
-  }
-  std::string name() const override { return "sim-via-can"; }
+  std::string name() const override { return via_can_ ? "sim-via-can" : "sim"; }
   std::string canReport() const override {
+    if (!via_can_) return {};
     std::ostringstream s;
     std::uint64_t sent = 0, received = 0, dropped = 0;
     for (int leg = 0; leg < model::kNumLegs; ++leg) {
-      const can::CanBusStats st = robot_via().bus(leg).robotSide().stats();
+      const can::CanBusStats st = via_can_->bus(leg).robotSide().stats();
       sent += st.sent;
       received += st.received;
       dropped += st.dropped;
     }
     s << "frames sent " << sent << ", received " << received << ", dropped " << dropped
-      << ", motor fault " << (robot_via().canRobot().hasFault() ? "yes" : "no");
+      << ", motor fault " << (via_can_->canRobot().hasFault() ? "yes" : "no");
     return s.str();
   }
 
  private:
-  can::SimViaCan& robot_via() const { return robot_; }
-  // Its CAN side reports faults and counters through non-const calls.
-  mutable can::SimViaCan robot_;
+  sim::SimRobot& sim() const { return via_can_ ? via_can_->sim() : *direct_; }
+
+  // Exactly one is set. Mutable: the CAN side reports faults and counters through non-const
+  // calls, and the range sensor reads the simulator's ground truth.
+  mutable std::optional<sim::SimRobot> direct_;
+  mutable std::optional<can::SimViaCan> via_can_;
   sim::RobotPlacement placement_;
   sim::GroundTruth gt_;
   std::optional<SimRangeSensor> range_;
@@ -142,8 +118,7 @@ std::unique_ptr<Backend> makeSimBackend(const model::RobotModel& robot,
                                         const nmpc::LocomotionController& controller,
                                         const ScenarioSettings& scenario, std::uint64_t seed,
                                         bool noise, bool via_can) {
-  if (via_can) return std::make_unique<SimViaCanBackend>(robot, controller, scenario, seed, noise);
-  return std::make_unique<SimBackend>(robot, controller, scenario, seed, noise);
+  return std::make_unique<SimBackend>(robot, controller, scenario, seed, noise, via_can);
 }
 
 std::unique_ptr<Backend> makeCanBackend(const model::RobotModel& robot,

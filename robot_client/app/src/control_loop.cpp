@@ -10,17 +10,6 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-bool isWheel(int joint) {
-  return joint % model::kJointsPerLeg == static_cast<int>(model::JointKind::Wheel);
-}
-
-// Roll and pitch (ZYX Euler) of R_WB; pitch positive nose-down about +y as in the URDF.
-void rollPitch(const Eigen::Quaterniond& q, double& roll, double& pitch) {
-  const Eigen::Matrix3d R = q.toRotationMatrix();
-  pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
-  roll = std::atan2(R(2, 1), R(2, 2));
-}
-
 }  // namespace
 
 ControlLoop::ControlLoop(const model::RobotModel& robot, const ClientSettings& settings,
@@ -41,8 +30,6 @@ ControlLoop::ControlLoop(const model::RobotModel& robot, const ClientSettings& s
       leg_{robot.legGeometry(model::Leg::LF).thigh_length,
            robot.legGeometry(model::Leg::LF).shank_length},
       takeoff_speed_(kNaN),
-      plan_request_t_(kNaN),
-      plan_arrival_t_(kNaN),
       takeoff_t_(kNaN) {
   settle_periods_ =
       static_cast<int>(std::lround(settings.contact.settle_s / backend.controlPeriod()));
@@ -126,13 +113,14 @@ void ControlLoop::estimate() {
   for (int j = 0; j < model::kNumJoints; ++j) q[j] = sensors_.joints[j].q;
   x_ = controller_.model().calcStateFromBase(X_WB, s.v_WB, s.omega_W, q, yaw_);
   yaw_ = x_[nmpc::state_index::kTheta + 2];
-  rollPitch(s.q_WB, roll_, pitch_);
+  roll_ = x_[nmpc::state_index::kTheta];
+  pitch_ = x_[nmpc::state_index::kTheta + 1];
   const Eigen::Vector3d heading(std::cos(yaw_), std::sin(yaw_), 0.0);
   speed_ = s.v_WB.dot(heading);
   com_x_ = (s.p_WB + X_WB.linear() * com_offset_B_).x();
 }
 
-void ControlLoop::postPlanRequest(bool speculative) {
+void ControlLoop::postPlanRequest() {
   if (requester_ == nullptr) {
     pending_request_ = false;
     return;
@@ -160,10 +148,8 @@ void ControlLoop::postPlanRequest(bool speculative) {
     r.obstacle_x_max_m = r.obstacle_x_min_m + scenario_.wall_thickness_m;
     r.obstacle_height_m = scenario_.wall_height_m;
   }
-  r.speculative = speculative;
   if (requester_->post(r)) {
     pending_request_ = false;
-    plan_request_t_ = t_;
   }
 }
 
@@ -175,7 +161,7 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
     return;
   }
   if (m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing) {
-    sim::PlanExecutor* ex = requester_ != nullptr ? requester_->executor() : nullptr;
+    sim::PlanExecutor* ex = executor();
     bool any_contact = false;
     for (bool c : contact_) any_contact = any_contact || c;
     if (ex != nullptr) ex->update(t_ - takeoff_t_, sensors_, any_contact, commands_);
@@ -185,7 +171,7 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
   // phase: impedance posture, wheel speed ramping to zero); the NMPC stays paused. Handing
   // back to the NMPC from the landing posture is not reliable yet (docs/robot-client.md).
   if (fsm_.jumped()) {
-    sim::PlanExecutor* ex = requester_ != nullptr ? requester_->executor() : nullptr;
+    sim::PlanExecutor* ex = executor();
     if (ex != nullptr) {
       ex->update(t_ - takeoff_t_, sensors_, true, commands_);
       return;
@@ -198,14 +184,13 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
   if (resuming || k_ - last_mpc_k_ >= static_cast<std::uint64_t>(mpc_every_)) {
     mpc_input_.t = t_;
     mpc_input_.x = x_;
-    ++mpc_input_.sequence;
     mpc_.post(mpc_input_);
     last_mpc_k_ = k_;
   }
   if (mpc_.counters().cycles == 0) {
     // Free-running NMPC that has not published a policy yet: hold the start posture.
     for (int j = 0; j < model::kNumJoints; ++j) {
-      const bool wheel = isWheel(j);
+      const bool wheel = model::isWheel(j);
       commands_[j] = {wheel ? sensors_.joints[j].q : q_start_[j], 0.0,
                       wheel ? 0.0 : settings_.executor.landing_kp,
                       wheel ? settings_.executor.wheel_kd : settings_.executor.landing_kd, 0.0};
@@ -222,7 +207,7 @@ void ControlLoop::applySafety() {
     finite = finite && std::isfinite(c.q_des) && std::isfinite(c.qd_des) && std::isfinite(c.kp) &&
              std::isfinite(c.kd) && std::isfinite(c.tau_ff);
     const model::JointSpec& spec = robot_.joints()[j];
-    if (!isWheel(j)) c.q_des = std::clamp(c.q_des, spec.lower_rad, spec.upper_rad);
+    if (!model::isWheel(j)) c.q_des = std::clamp(c.q_des, spec.lower_rad, spec.upper_rad);
     const double peak = spec.actuator.peak_torque_nm;
     c.tau_ff = std::clamp(c.tau_ff, -peak, peak);
   }
@@ -259,8 +244,7 @@ void ControlLoop::step() {
     in.plan = requester_->status();
   else
     in.plan = fsm_.mode() == Mode::Plan ? PlanStatus::Failed : PlanStatus::None;
-  if (in.plan == PlanStatus::Pending && pending_request_) in.plan = PlanStatus::Pending;
-  const sim::PlanExecutor* ex = requester_ != nullptr ? requester_->executor() : nullptr;
+  const sim::PlanExecutor* ex = executor();
   const bool executing =
       fsm_.mode() == Mode::Takeoff || fsm_.mode() == Mode::Flight || fsm_.mode() == Mode::Landing;
   if (executing && ex != nullptr) {
@@ -271,20 +255,15 @@ void ControlLoop::step() {
   in.estimator_diverged = estimator_.diverged();
   in.motor_fault = faults_ != nullptr && faults_->hasFault();
   in.watchdog_tripped = watchdog_.load(std::memory_order_acquire);
-  const Mode before = fsm_.mode();
   const FsmOutput out = fsm_.step(in);
 
-  if (before == Mode::Plan && out.mode != Mode::Plan && in.plan != PlanStatus::Pending &&
-      in.plan != PlanStatus::None)
-    plan_arrival_t_ = t_;
   if (out.start_roll) setSpeedCommand(scenario_.run_up_speed_m_s, scenario_.acceleration_m_s2);
   if (out.request_plan) pending_request_ = true;
-  if (pending_request_) postPlanRequest(false);
+  if (pending_request_) postPlanRequest();
   if (out.brake) setSpeedCommand(0.0, settings_.safety.brake_decel_m_s2);
   if (out.start_takeoff) {
     takeoff_t_ = t_;
     takeoff_speed_ = speed_;
-    if (std::isnan(plan_arrival_t_)) plan_arrival_t_ = t_;
     mpc_input_.active = false;
     mpc_.post(mpc_input_);  // pauses the NMPC for the jump
   }

@@ -162,7 +162,6 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
       break;
   }
   out.mode = mode_;
-  out.takeoff_com_x = takeoff_com_x_;
   return out;
 }
 

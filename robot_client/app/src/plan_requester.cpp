@@ -57,7 +57,7 @@ v1::PlanJumpRequest makeRequest(const PlanRequestSnapshot& s, const PlannerConne
   b->set_seed(c.seed);
   b->set_skip_verification(c.skip_verification);
   std::ostringstream id;
-  id << (s.speculative ? "prefetch-" : "jump-") << std::lround(s.t * 1000.0);
+  id << "jump-" << std::lround(s.t * 1000.0);
   r.set_request_id(id.str());
   return r;
 }
@@ -197,7 +197,7 @@ bool PlanRequester::post(const PlanRequestSnapshot& snapshot) {
   if (!slot_state_.compare_exchange_strong(expected, kWriting, std::memory_order_acquire))
     return false;
   slot_ = snapshot;
-  if (!snapshot.speculative) status_.store(PlanStatus::Pending, std::memory_order_release);
+  status_.store(PlanStatus::Pending, std::memory_order_release);
   slot_state_.store(kPosted, std::memory_order_release);
   slot_state_.notify_one();
   return true;
@@ -223,7 +223,6 @@ void PlanRequester::handle(const PlanRequestSnapshot& snapshot) {
   const auto deadline =
       std::chrono::milliseconds(static_cast<long>(connection_.deadline_s * 1000.0));
   client::PlanResult result = client_->planJump(makeRequest(snapshot, connection_), deadline).get();
-  if (snapshot.speculative) return;  // only warms the service's cache
   PlanRequestInfo info;
   info.latency_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

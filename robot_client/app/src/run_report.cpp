@@ -8,6 +8,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "nmpc/rotation.h"
 #include "robot_client/backends.h"
 #include "robot_client/plan_requester.h"
 #include "sim/sim_robot.h"
@@ -78,8 +79,8 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
   const double t_read = loop.time();  // the sensor time of the period just run
   const Eigen::Vector3d p = gt.X_WB.translation();
   const Eigen::Matrix3d R = gt.X_WB.linear();
-  const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0));
-  const double roll = std::atan2(R(2, 1), R(2, 2));
+  const Eigen::Vector3d euler = nmpc::calcEulerAngles(R);  // roll, pitch, yaw (ZYX)
+  const double roll = euler.x(), pitch = euler.y();
   have_truth_row_ = true;
   truth_row_ = {
       t_read,      p.x(),
@@ -162,7 +163,6 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
   if (err_n_ > 0) {
     truth_.est_pos_rms = std::sqrt(pos_err2_ / static_cast<double>(err_n_));
     truth_.est_vel_rms = std::sqrt(vel_err2_ / static_cast<double>(err_n_));
-    truth_.est_samples = static_cast<double>(err_n_);
   }
   s.truth = truth_;
 

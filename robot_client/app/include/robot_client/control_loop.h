@@ -83,9 +83,6 @@ class ControlLoop {
   TransitionRing& transitions() { return transitions_; }
   /// Estimated speed at the start of take-off [m/s] (NaN before).
   double takeoffSpeed() const { return takeoff_speed_; }
-  /// Robot time of the plan request and of the plan's arrival [s] (NaN before).
-  double planRequestTime() const { return plan_request_t_; }
-  double planArrivalTime() const { return plan_arrival_t_; }
   /// Start of take-off, robot time [s] (NaN before).
   double takeoffTime() const { return takeoff_t_; }
   /// Largest |applied torque| per joint over the run [Nm].
@@ -96,7 +93,11 @@ class ControlLoop {
   void updateContacts();
   void computeCommands(const FsmOutput& out);
   void applySafety();
-  void postPlanRequest(bool speculative);
+  void postPlanRequest();
+  // The executor of the requested plan, or null.
+  sim::PlanExecutor* executor() const {
+    return requester_ != nullptr ? requester_->executor() : nullptr;
+  }
   void setSpeedCommand(double v_target, double accel);
 
   const model::RobotModel& robot_;
@@ -131,9 +132,8 @@ class ControlLoop {
   std::array<int, model::kNumLegs> contact_periods_{};  // consecutive periods in contact
   int settle_periods_ = 50;
   bool pending_request_ = false;
-  bool prefetched_ = false;
   double takeoff_speed_;
-  double plan_request_t_, plan_arrival_t_, takeoff_t_;
+  double takeoff_t_;
   double last_compute_us_ = 0.0;
   std::atomic<bool> watchdog_{false};
   int journal_seen_ = 0;

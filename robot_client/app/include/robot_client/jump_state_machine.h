@@ -68,7 +68,6 @@ struct FsmOutput {
   bool start_takeoff = false;  ///< start executing the plan now (once)
   bool brake = false;          ///< set the speed command to a stop now (once)
   bool start_roll = false;     ///< set the run-up speed command now (once)
-  double takeoff_com_x = 0.0;  ///< CoM x at which the take-off starts [m]
 };
 
 /// One journal entry.

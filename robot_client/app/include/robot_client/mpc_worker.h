@@ -25,7 +25,6 @@ struct MpcInput {
   nmpc::SpeedCommand command;
   std::uint32_t command_version = 0;  ///< bumped when `command` changes
   bool active = true;                 ///< false during a jump: the NMPC pauses
-  std::uint64_t sequence = 0;         ///< lockstep: which tick this is
 };
 
 /// Counters of the NMPC thread.

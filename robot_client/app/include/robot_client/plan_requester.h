@@ -46,7 +46,6 @@ struct PlanRequestSnapshot {
   planner::TakeoffMode mode = planner::TakeoffMode::Simultaneous;
   bool has_obstacle = false;
   double obstacle_x_min_m = 0.0, obstacle_x_max_m = 0.0, obstacle_height_m = 0.0;
-  bool speculative = false;  ///< a prefetch: its answer only warms the service's cache
 };
 
 /// How the last request went (for the summary; read outside the loop).
@@ -76,7 +75,7 @@ class PlanRequester {
 
   /// Real-time safe. Starts a request from `snapshot`; returns false if one is in flight.
   bool post(const PlanRequestSnapshot& snapshot);
-  /// Status of the last non-speculative request (acquire load).
+  /// Status of the last request (acquire load).
   PlanStatus status() const { return status_.load(std::memory_order_acquire); }
   /// The plan, valid once status() == Feasible.
   const planner::JumpPlan& plan() const { return plan_; }

@@ -44,7 +44,6 @@ struct TruthMetrics {
   double final_front_wheel_x = 0.0;  ///< front wheels' foremost x at the end [m]
   double final_pitch = 0.0, final_roll = 0.0, final_speed = 0.0, final_height = 0.0;
   double est_pos_rms = 0.0, est_vel_rms = 0.0;  ///< estimator error vs truth (RMS)
-  double est_samples = 0.0;
 };
 
 struct RunSummary {
