@@ -175,9 +175,13 @@ struct Solved {
   // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
   // moving (docs/planner.md, "Flight").
   std::array<Eigen::Vector2d, 2> q_to{}, qd_to{};
+  Eigen::Vector2d c_to = Eigen::Vector2d::Zero();  // CoM in the base at take-off
   std::array<double, 2> wheel_to{};
   int n_flight = 0;
   std::array<double, 257> flight_pitch{}, flight_rate{};
+  // The legs' (HFE, KFE) per pair and the CoM in the base at the same flight instants.
+  std::array<std::array<Eigen::Vector2d, 257>, 2> flight_q{};
+  std::array<Eigen::Vector2d, 257> flight_c{};
 };
 
 /// Kinematics and statics of one wheel pair at one instant (left leg; right is mirrored).
@@ -310,6 +314,7 @@ struct JumpModelAccess {
     }
     contactSample(M, S, S.t2, smp, S.two_step, M.c0_);
     S.q_to = {smp.hind.q, smp.front.q};
+    S.c_to = smp.c;
     S.qd_to = {smp.hind.qd, smp.front.qd};
     S.wheel_to = {smp.hind.wheel_rate, smp.front.wheel_rate};
     integrateFlightAttitude(M, S);
@@ -322,16 +327,16 @@ struct JumpModelAccess {
   // rates qd. The wheels count as point masses on their axles: in flight they spin freely, so
   // their spin momentum stays with them and exchanges nothing with the body.
   static void flightMomentum(const JumpModel& M, const std::array<Eigen::Vector2d, 2>& q,
-                             const std::array<Eigen::Vector2d, 2>& qd, double& i_total, double& h) {
+                             const std::array<Eigen::Vector2d, 2>& qd, double& i_total, double& h,
+                             Eigen::Vector2d* com_in_base = nullptr) {
     auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
       return a.y() * b.x() - a.x() * b.y();  // y component of (a_x, 0, a_z) x (b_x, 0, b_z)
     };
-    auto Rv = [](double q1, const Eigen::Vector2d& v) {
-      const double sn = std::sin(q1), cs = std::cos(q1);
+    // R_y(q) v and its derivative, from sin and cos of q.
+    auto Rv = [](double sn, double cs, const Eigen::Vector2d& v) {
       return Eigen::Vector2d(cs * v.x() + sn * v.y(), -sn * v.x() + cs * v.y());
     };
-    auto dRv = [](double q1, const Eigen::Vector2d& v) {
-      const double sn = std::sin(q1), cs = std::cos(q1);
+    auto dRv = [](double sn, double cs, const Eigen::Vector2d& v) {
       return Eigen::Vector2d(-sn * v.x() + cs * v.y(), -cs * v.x() - sn * v.y());
     };
     const double l1 = M.leg_.l1;
@@ -340,13 +345,15 @@ struct JumpModelAccess {
     Eigen::Vector2d first = M.moment_fixed_, rate = Eigen::Vector2d::Zero();
     for (int pair = 0; pair < 2; ++pair) {
       const JumpModel::Geometry& g = pair == 0 ? M.hind_ : M.front_;
-      const double q1 = q[pair][0], q12 = q[pair][0] + q[pair][1];
-      const Eigen::Vector2d knee(-l1 * std::sin(q1), -l1 * std::cos(q1));
-      const Eigen::Vector2d dknee(-l1 * std::cos(q1), l1 * std::sin(q1));
-      p[2 * pair] = g.hfe_b + Rv(q1, g.c_thigh);
-      v[2 * pair] = dRv(q1, g.c_thigh) * qd[pair][0];
-      p[2 * pair + 1] = g.hfe_b + knee + Rv(q12, g.c_lower);
-      v[2 * pair + 1] = dknee * qd[pair][0] + dRv(q12, g.c_lower) * (qd[pair][0] + qd[pair][1]);
+      const double s1 = std::sin(q[pair][0]), c1 = std::cos(q[pair][0]);
+      const double s12 = std::sin(q[pair][0] + q[pair][1]), c12 = std::cos(q[pair][0] + q[pair][1]);
+      const Eigen::Vector2d knee(-l1 * s1, -l1 * c1);
+      const Eigen::Vector2d dknee(-l1 * c1, l1 * s1);
+      p[2 * pair] = g.hfe_b + Rv(s1, c1, g.c_thigh);
+      v[2 * pair] = dRv(s1, c1, g.c_thigh) * qd[pair][0];
+      p[2 * pair + 1] = g.hfe_b + knee + Rv(s12, c12, g.c_lower);
+      v[2 * pair + 1] =
+          dknee * qd[pair][0] + dRv(s12, c12, g.c_lower) * (qd[pair][0] + qd[pair][1]);
       m[2 * pair] = 2.0 * g.m_thigh;
       m[2 * pair + 1] = 2.0 * g.m_lower;
       i[2 * pair] = 2.0 * g.i_thigh;
@@ -359,6 +366,7 @@ struct JumpModelAccess {
       rate += m[k] * v[k];
     }
     const Eigen::Vector2d c = first / M.mass_, c_dot = rate / M.mass_;
+    if (com_in_base) *com_in_base = c;
     const Eigen::Vector2d c_fixed = M.moment_fixed_ / M.mass_fixed_;
     i_total = M.i_fixed_ + M.mass_fixed_ * (c_fixed - c).squaredNorm();
     h = M.mass_fixed_ * cross(c_fixed - c, -c_dot);
@@ -392,7 +400,9 @@ struct JumpModelAccess {
       for (int pair = 0; pair < 2; ++pair)
         q[pair] = flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
       double i_total = 0.0, h = 0.0;
-      flightMomentum(M, q, qd, i_total, h);
+      flightMomentum(M, q, qd, i_total, h, &S.flight_c[k]);
+      S.flight_q[0][k] = q[0];
+      S.flight_q[1][k] = q[1];
       const double rate = -(h_y - h) / i_total;  // nose-up = about -y
       S.flight_rate[k] = rate;
       S.flight_pitch[k] =
@@ -529,8 +539,9 @@ struct JumpModelAccess {
     Eigen::Vector2d c = c_guess;
     ComOffset co;
     for (int it = 0; it < kCoMIterations; ++it) {
-      pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach);
-      if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach);
+      // c(q) needs only the sines and cosines of the joint angles.
+      pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach, /*angles=*/false);
+      if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach, false);
       co = comOffset(M, pH, pF);
       c = co.c;
     }
@@ -545,16 +556,26 @@ struct JumpModelAccess {
     const Eigen::Matrix2d JH = M.leg_.jacobian(pH);
     if (F.contact) {
       const Eigen::Matrix2d JF = M.leg_.jacobian(pF);
-      Eigen::Matrix4d A;
-      A << JH - co.C[0], -co.C[1], -co.C[0], JF - co.C[1];
-      Eigen::Vector4d rhs;
-      rhs << relH_dot, relF_dot;
-      const Eigen::PartialPivLU<Eigen::Matrix4d> lu(A);
-      const Eigen::Vector4d qd = std::abs(lu.determinant()) > 1e-12
-                                     ? Eigen::Vector4d(lu.solve(rhs))
-                                     : Eigen::Vector4d::Constant(1e3);
-      H.qd = qd.head<2>();
-      F.qd = qd.tail<2>();
+      // [A  B; C  D] (qd_H, qd_F) = (relH', relF') with A = J_H - C_H, B = -C_F, C = -C_H,
+      // D = J_F - C_F, by the Schur complement of A (closed-form 2x2 inverses).
+      const Eigen::Matrix2d A = JH - co.C[0], B = -co.C[1], C = -co.C[0], D = JF - co.C[1];
+      const double det_a = A.determinant();
+      bool ok = std::abs(det_a) > 1e-12;
+      if (ok) {
+        const Eigen::Matrix2d A_inv = A.inverse();
+        const Eigen::Matrix2d Sc = D - C * A_inv * B;
+        const double det_s = Sc.determinant();
+        ok = std::abs(det_a * det_s) > 1e-12 && std::abs(det_s) > 1e-14;
+        if (ok) {
+          const Eigen::Vector2d y = A_inv * relH_dot;
+          F.qd = Sc.inverse() * (relF_dot - C * y);
+          H.qd = y - A_inv * (B * F.qd);
+        }
+      }
+      if (!ok) {
+        H.qd = Eigen::Vector2d::Constant(1e3);
+        F.qd = Eigen::Vector2d::Constant(1e3);
+      }
     } else {
       const Eigen::Matrix2d A = JH - co.C[0];
       H.qd = std::abs(A.determinant()) > 1e-12 ? Eigen::Vector2d(A.inverse() * relH_dot)
@@ -579,7 +600,7 @@ struct JumpModelAccess {
     const double r = M.wheel_radius_;
     p.f = f;
     const Eigen::Vector2d contact_b =
-        M.leg_.forward(pose.q) + R.transposeTimes(Eigen::Vector2d(0.0, -r));
+        M.leg_.forward(pose) + R.transposeTimes(Eigen::Vector2d(0.0, -r));
     const Eigen::Vector2d f_b = R.transposeTimes(f);
     p.tau = M.leg_.balancingTorque(pose, contact_b, f_b);
     p.haa_fz = f_b.y();
@@ -657,22 +678,24 @@ struct JumpModelAccess {
                        const Sample* smp, const std::array<Eigen::Vector2d, 2>* flight_q,
                        Sink& sink) {
     const Eigen::Vector2d com(s.x, s.z);
-    double lowest = kInf;
     double clearance = kInf;
     const auto* box = M.task_.obstacle ? &*M.task_.obstacle : nullptr;
     const Rot2 R(s.pitch);
-    for (int i = 0; i < 8; ++i) {
+    // The base box: its centre and half axes in the world.
+    const Eigen::Vector2d centre = com - R * c;
+    const Eigen::Vector2d ax = R * Eigen::Vector2d(M.box_half_.x(), 0.0);
+    const Eigen::Vector2d az = R * Eigen::Vector2d(0.0, M.box_half_.y());
+    // Its lowest point is a corner.
+    const double lowest = centre.y() - std::abs(ax.y()) - std::abs(az.y());
+    sink(ConstraintClass::BodyHeight, lowest - M.settings_.min_body_clearance_m, t, -3);
+    if (box) {
       // 4 corners and 4 edge midpoints of the base box.
       static constexpr std::array<std::array<double, 2>, 8> kPts = {
           {{1, 1}, {1, -1}, {-1, 1}, {-1, -1}, {0, 1}, {0, -1}, {1, 0}, {-1, 0}}};
-      const Eigen::Vector2d pb =
-          -c + Eigen::Vector2d(kPts[i][0] * M.box_half_.x(), kPts[i][1] * M.box_half_.y());
-      const Eigen::Vector2d p = com + R * pb;
-      lowest = std::min(lowest, p.y());
-      if (box) clearance = std::min(clearance, obstacleMargin(*box, p, 0.0, smp != nullptr));
-    }
-    sink(ConstraintClass::BodyHeight, lowest - M.settings_.min_body_clearance_m, t, -3);
-    if (box) {
+      for (const auto& k : kPts) {
+        const Eigen::Vector2d p = centre + k[0] * ax + k[1] * az;
+        clearance = std::min(clearance, obstacleMargin(*box, p, 0.0, smp != nullptr));
+      }
       for (int pair = 0; pair < 2; ++pair) {
         Eigen::Vector2d axle;
         if (smp) {
@@ -721,7 +744,6 @@ struct JumpModelAccess {
     double energy = 0.0, prev_power = 0.0, prev_t = 0.0;
     Sample smp;
     Eigen::Vector2d c_guess = M.c0_;
-    Eigen::Vector2d q_to_hind, q_to_front;
     const int n_phases = S.two_step ? 2 : 1;
     for (int phase = 0; phase < n_phases; ++phase) {
       const int n = phase == 0 ? st.samples_phase1 : st.samples_phase2;
@@ -757,15 +779,12 @@ struct JumpModelAccess {
         prev_t = t;
       }
     }
-    q_to_hind = smp.hind.q;
-    q_to_front = smp.front.q;
-    for (int k = 1; k <= st.samples_flight; ++k) {
-      const double t = S.t2 + S.Tf * k / st.samples_flight;
+    // Flight: the postures and CoM offsets tabulated with the attitude (same instants).
+    for (int k = 1; k <= S.n_flight; ++k) {
+      const double t = S.t2 + S.Tf * k / S.n_flight;
       const PlanarState s = flightState(M, S, t);
-      const std::array<Eigen::Vector2d, 2> q = {flightPosture(M, S, q_to_hind, t, nullptr),
-                                                flightPosture(M, S, q_to_front, t, nullptr)};
-      const Eigen::Vector2d c = comOffset(M, poseOf(q[0]), poseOf(q[1])).c;
-      emitBody(M, t, s, c, nullptr, &q, sink);
+      const std::array<Eigen::Vector2d, 2> q = {S.flight_q[0][k], S.flight_q[1][k]};
+      emitBody(M, t, s, S.flight_c[k], nullptr, &q, sink);
     }
     if (M.task_.obstacle) {
       // Clearing the obstacle means landing beyond it: the rear wheel touches down past its
@@ -794,9 +813,7 @@ struct JumpModelAccess {
     };
     // The base at take-off from the take-off posture; in flight the legs are taken at the
     // landing posture they are moving to.
-    Sample smp;
-    contactSample(M, S, S.t2, smp, S.two_step, M.c0_);
-    out.takeoff = event(S.t2, to, smp.c);
+    out.takeoff = event(S.t2, to, S.c_to);
     const double t_apex = std::max(to.vz / g, 0.0);
     std::array<Eigen::Vector2d, 2> q_apex;
     for (int pair = 0; pair < 2; ++pair)

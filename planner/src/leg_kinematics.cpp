@@ -26,7 +26,7 @@ Eigen::Vector2d PlanarLeg::inverse(const Eigen::Vector2d& b, double* reach_margi
   return inversePose(b, reach_margin).q;
 }
 
-LegPose PlanarLeg::inversePose(const Eigen::Vector2d& b, double* reach_margin) const {
+LegPose PlanarLeg::inversePose(const Eigen::Vector2d& b, double* reach_margin, bool angles) const {
   const double r_min = std::abs(l1 - l2) + 1e-9, r_max = l1 + l2 - 1e-9;
   const double L = b.norm();
   if (reach_margin) *reach_margin = std::min(L - r_min, r_max - L);
@@ -38,11 +38,23 @@ LegPose PlanarLeg::inversePose(const Eigen::Vector2d& b, double* reach_margin) c
   const double sa = L > 0.0 ? -b.x() / L : 0.0, ca = L > 0.0 ? -b.y() / L : 1.0;
   const double sb = l2 * s2 / Lc, cb = (l1 + l2 * c2) / Lc;
   LegPose p;
-  p.q = {std::atan2(sa, ca) - std::atan2(sb, cb), -std::acos(c2)};
   p.s1 = sa * cb - ca * sb;
   p.c1 = ca * cb + sa * sb;
   p.s12 = p.s1 * c2 + p.c1 * s2;
   p.c12 = p.c1 * c2 - p.s1 * s2;
+  if (angles) {
+    // q1 = a - beta with a = atan2(sa, ca) and beta = atan2(sb, cb) in [-pi/2, 0] (sb <= 0,
+    // cb >= 0 for l1 >= l2), so q1 lies in (-pi, 3pi/2]: one atan2 of (s1, c1), unwrapped
+    // above pi where a is in the upper half-plane. q2 = -acos(c2) = atan2(s2, c2), s2 <= 0.
+    double q1;
+    if (l1 >= l2) {
+      q1 = std::atan2(p.s1, p.c1);
+      if (q1 < -M_PI_2 && sa > 0.0) q1 += 2.0 * M_PI;
+    } else {
+      q1 = std::atan2(sa, ca) - std::atan2(sb, cb);
+    }
+    p.q = {q1, std::atan2(s2, c2)};
+  }
   return p;
 }
 

@@ -144,6 +144,7 @@ void PlannerSettings::validate() const {
   check(polish_tolerance > 0, "polish.tolerance", "> 0", polish_tolerance);
   check(polish_retries >= 0 && polish_retries <= 16, "polish.retries", "in [0, 16]",
         polish_retries);
+  check(polish_stall_iterations >= 0, "polish.stall_iterations", ">= 0", polish_stall_iterations);
   de.validate();
 }
 
@@ -311,7 +312,8 @@ PlannerSettings parse(const YAML::Node& root) {
                      {{"enabled", [&](const YAML::Node& v) { s.polish = v.as<bool>(); }},
                       {"max_iterations", integer(s.polish_max_iterations)},
                       {"tolerance", number(s.polish_tolerance)},
-                      {"retries", integer(s.polish_retries)}});
+                      {"retries", integer(s.polish_retries)},
+                      {"stall_iterations", integer(s.polish_stall_iterations)}});
        }},
   };
   readSection(root, "", top);

@@ -190,6 +190,8 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.putBool(s.polish);
   w.put(s.polish_max_iterations);
   w.putDouble(s.polish_tolerance);
+  w.put(s.polish_retries);
+  w.put(s.polish_stall_iterations);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

@@ -26,6 +26,32 @@ TEST(PlanarLeg, InverseForwardRoundTrip) {
   }
 }
 
+// inversePose returns q1 = a - beta in (-pi, 3pi/2] (one atan2, unwrapped above pi), the same
+// angle the two-atan2 formula gives, for equal and unequal links; without angles it returns the
+// same sines and cosines.
+TEST(PlanarLeg, InverseKeepsTheAngleBranchBeyondPi) {
+  for (const PlanarLeg& leg : {kLeg, PlanarLeg{0.25, 0.18}, PlanarLeg{0.18, 0.25}}) {
+    for (double q1 = -3.0; q1 <= 4.5; q1 += 0.1) {
+      for (double q2 = -3.0; q2 <= -0.05; q2 += 0.2) {
+        const Eigen::Vector2d b = leg.forward(Eigen::Vector2d(q1, q2));
+        const LegPose pose = leg.inversePose(b);
+        const double sa = -b.x() / b.norm(), ca = -b.y() / b.norm();
+        const double c2 = std::cos(pose.q[1]), s2 = std::sin(pose.q[1]);
+        const double lc = b.norm();
+        const double reference =
+            std::atan2(sa, ca) - std::atan2(leg.l2 * s2 / lc, (leg.l1 + leg.l2 * c2) / lc);
+        EXPECT_NEAR(pose.q[0], reference, 1e-9) << leg.l1 << " " << q1 << " " << q2;
+        EXPECT_NEAR(pose.q[1], q2, 1e-7) << leg.l1 << " " << q1 << " " << q2;
+        EXPECT_LT(leg.l1 >= leg.l2 ? pose.q[0] : 0.0, 1.5 * M_PI + 1e-12);
+        EXPECT_TRUE(leg.forward(pose).isApprox(b, 1e-9));
+        const LegPose trig = leg.inversePose(b, nullptr, /*angles=*/false);
+        EXPECT_EQ(trig.s1, pose.s1);
+        EXPECT_EQ(trig.c12, pose.c12);
+      }
+    }
+  }
+}
+
 TEST(PlanarLeg, ReachMarginOutsideTheAnnulus) {
   double reach = 0.0;
   (void)kLeg.inverse(Eigen::Vector2d(0.0, -0.45), &reach);

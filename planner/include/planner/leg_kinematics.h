@@ -24,6 +24,10 @@ struct PlanarLeg {
 
   /// Axle position b(q) relative to the HFE axis, base frame x-z [m].
   Eigen::Vector2d forward(const Eigen::Vector2d& q) const;
+  /// The same from a pose's sines and cosines (no trigonometry).
+  Eigen::Vector2d forward(const LegPose& p) const {
+    return {-l1 * p.s1 - l2 * p.s12, -l1 * p.c1 - l2 * p.c12};
+  }
   /// Jacobian db/dq (2 x 2).
   Eigen::Matrix2d jacobian(const Eigen::Vector2d& q) const;
   /// Knee position relative to the HFE axis [m].
@@ -32,8 +36,10 @@ struct PlanarLeg {
   /// distance of |b| to the reachable annulus [|l1 - l2|, l1 + l2] (negative = out of reach,
   /// in which case b is projected onto the annulus first).
   Eigen::Vector2d inverse(const Eigen::Vector2d& b, double* reach_margin = nullptr) const;
-  /// inverse() with the trigonometry of the result (one acos and two atan2 in all).
-  LegPose inversePose(const Eigen::Vector2d& b, double* reach_margin = nullptr) const;
+  /// inverse() with the trigonometry of the result (two atan2 in all). With `angles` false
+  /// only the sines and cosines are computed (no inverse trigonometry) and q is left zero.
+  LegPose inversePose(const Eigen::Vector2d& b, double* reach_margin = nullptr,
+                      bool angles = true) const;
   /// jacobian() at a pose from inversePose().
   Eigen::Matrix2d jacobian(const LegPose& pose) const;
   /// balancingTorque() at a pose from inversePose().

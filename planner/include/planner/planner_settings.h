@@ -95,6 +95,10 @@ struct PlannerSettings {
   /// Near the feasibility boundary the attempts end in different basins, and the polish that
   /// fails from one often succeeds from another.
   int polish_retries = 3;
+  /// Stop the polish once a point meeting every constraint is known and this many iterations in
+  /// a row have not lowered its energy by 0.1 % (0 = run to Ipopt's own convergence or
+  /// max_iterations).
+  int polish_stall_iterations = 3;
 
   PlannerSettings();
   /// Throws std::invalid_argument naming the field and its allowed range.
