@@ -2,6 +2,7 @@
 // prints the plan's prediction and the simulated outcome side by side. Writes CSV telemetry and,
 // with --plot, figures like the paper's Fig. 7 and Fig. 11 (gnuplot).
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -9,12 +10,14 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "planner/jump_planner.h"
 #include "planner/plan_report.h"
 #include "planner/presets.h"
+#include "sim/statics.h"
 #include "sim/telemetry.h"
 #include "sim/verifier.h"
 
@@ -100,6 +103,21 @@ void plot(const std::filesystem::path& png, const std::filesystem::path& csv,
     throw std::runtime_error("gnuplot failed on " + script.string());
 }
 
+// Signed distance of the lowest wheel to the terrain in the plan's predicted touchdown state
+// (CoM and pitch of plan.predicted.touchdown, posture q_landing): 0 if the predicted
+// touchdown is a first wheel contact, negative if the wheels would already be in the ground.
+double predictedTouchdownWheelGap(const wj::model::RobotModel& robot, const pl::JumpPlan& plan,
+                                  const sm::Terrain& terrain) {
+  sm::InitialState state;
+  state.com = plan.predicted.touchdown.state;
+  state.q = plan.q_landing;
+  const sm::RobotPlacement placement = sm::calcPlacement(robot, state, terrain);
+  double gap = std::numeric_limits<double>::infinity();
+  for (const Eigen::Vector3d& c : sm::calcWheelCenters(robot, plan.q_landing))
+    gap = std::min(gap, sm::calcTerrainDistance(terrain, placement.X_WB * c) - robot.wheelRadius());
+  return gap;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -163,14 +181,29 @@ int main(int argc, char** argv) {
       json j;
       j["plan"] = pl::reportJson(sc, r);
       j["predicted"] = outcomeJson(p);
+      j["predicted"]["touchdown"]["lowest_wheel_gap_m"] =
+          predictedTouchdownWheelGap(robot, r.plan, scenario.terrain);
       j["simulated"] = outcomeJson(s);
-      j["verification"] = {{"passed", v.passed},
-                           {"reasons", v.reasons},
-                           {"landed_upright", v.landed_upright},
-                           {"max_envelope_ratio", v.max_envelope_ratio},
-                           {"apex_height_error_m", v.apex_height_error_m},
-                           {"touchdown_dx_error_m", v.touchdown_dx_error_m},
-                           {"max_base_z_m", v.max_base_z_m}};
+      json failures = json::array();
+      for (const sm::FailureReason f : v.failures.toVector()) failures.push_back(sm::toString(f));
+      j["verification"] = {
+          {"passed", v.passed},
+          {"failures", failures},
+          {"reasons", v.reasons},
+          {"landed_upright", v.landed_upright},
+          {"max_envelope_ratio", v.max_envelope_ratio},
+          {"worst_envelope_joint", v.worst_envelope_joint >= 0
+                                       ? json(robot.joints()[v.worst_envelope_joint].name)
+                                       : json(nullptr)},
+          {"max_speed_ratio", v.max_speed_ratio},
+          {"apex_height_error_m", v.apex_height_error_m},
+          {"touchdown_dx_error_m", v.touchdown_dx_error_m},
+          {"touchdown_pitch_error_rad", v.touchdown_pitch_error_rad},
+          {"max_base_z_m", v.max_base_z_m},
+          {"final_pitch_rad", v.final_pitch_rad},
+          {"final_roll_rad", v.final_roll_rad},
+          {"final_base_height_m", v.final_base_height_m},
+          {"nominal_base_height_m", v.nominal_base_height_m}};
       const char* kinds[4] = {"haa", "hfe", "kfe", "wheel"};
       for (int k = 0; k < 4; ++k)
         j["simulated_max"][kinds[k]] = {{"torque_nm", sim_torque[k]},
