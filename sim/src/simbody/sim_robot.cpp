@@ -125,9 +125,18 @@ struct SimRobot::Impl {
 
   Impl(const model::RobotModel& m, const SimSettings& s);
 
-  // Drive torque of joint i at state s (PD law on the current command, clipped by the
-  // envelope); `demand` receives the unclipped value.
-  double driveTorque(const SimTK::State& s, int i, double* demand) const;
+  // Drive torque of joint i (PD law on the current command, clipped by the envelope) at
+  // joint position q and speed qd; `demand` receives the unclipped value.
+  double driveTorque(int i, double q, double qd, double* demand) const;
+  // Position and speed of joint i at state s, read from the matter subsystem's q and u by the
+  // indices cached after realizeModel (MobilizedBody::getOneQ() looks them up per call).
+  double jointQ(const SimTK::Vector& q, int i) const { return q[q_index[i]]; }
+  double jointU(const SimTK::Vector& u, int i) const { return u[u_index[i]]; }
+  // Whole-robot centre of mass location p_GC and velocity v_GC in Ground, as
+  // SimbodyMatterSubsystem::calcSystemMassCenter{Location,Velocity}InGround compute them
+  // (same bodies, same order) with the mass properties cached and each body's pose and
+  // velocity fetched once (every Simbody accessor costs cache look-ups and dynamic_casts).
+  void calcMassCenter(const SimTK::State& s, SimTK::Vec3& p_GC, SimTK::Vec3& v_GC) const;
   // Calls f(group, sphere index, contact) for every sphere overlapping a box.
   template <class F>
   void forEachBoxContact(const SimTK::State& s, F&& f) const;
@@ -154,6 +163,12 @@ struct SimRobot::Impl {
   std::array<SimTK::MobilizedBody, model::kNumJoints> pins;
   std::array<int, model::kNumLegs> wheel_link{};
   std::vector<SphereGroup> groups;
+  // Per pin joint, jointIndex() order: index of its q and u in the matter subsystem.
+  std::array<SimTK::QIndex, model::kNumJoints> q_index;
+  std::array<SimTK::UIndex, model::kNumJoints> u_index;
+  // Per link (mobods order): mass and centre of mass in the body frame.
+  std::vector<double> link_mass;
+  std::vector<SimTK::Vec3> link_com;
 
   // Classification of Simbody contact surfaces, filled after realizeTopology().
   std::vector<Part> surface_part;
@@ -181,11 +196,14 @@ class SimRobot::Impl::DriveElement : public SimTK::Force::Custom::Implementation
   explicit DriveElement(const Impl& impl) : impl_(impl) {}
   void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>&,
                  SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector& mobility_forces) const override {
+    const bool hold = impl_.settings.actuator_update == ActuatorUpdate::ZeroOrderHold;
+    const SimTK::Vector& q = impl_.matter.getQ(s);
+    const SimTK::Vector& u = impl_.matter.getU(s);
     for (int i = 0; i < model::kNumJoints; ++i) {
-      const double tau = impl_.settings.actuator_update == ActuatorUpdate::ZeroOrderHold
-                             ? impl_.held_torque[i]
-                             : impl_.driveTorque(s, i, nullptr);
-      impl_.pins[i].applyOneMobilityForce(s, 0, tau, mobility_forces);
+      const double tau =
+          hold ? impl_.held_torque[i]
+               : impl_.driveTorque(i, impl_.jointQ(q, i), impl_.jointU(u, i), nullptr);
+      mobility_forces[impl_.u_index[i]] += tau;  // = pins[i].applyOneMobilityForce()
     }
   }
   SimTK::Real calcPotentialEnergy(const SimTK::State&) const override { return 0.0; }
@@ -337,6 +355,15 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
 
   default_state = system.realizeTopology();
   system.realizeModel(default_state);
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    q_index[i] = pins[i].getFirstQIndex(default_state);
+    u_index[i] = pins[i].getFirstUIndex(default_state);
+  }
+  for (const SimTK::MobilizedBody& mb : mobods) {
+    const SimTK::MassProperties& mp = mb.getBodyMassProperties(default_state);
+    link_mass.push_back(mp.getMass());
+    link_com.push_back(mp.getMassCenter());
+  }
 
   // Classify the Simbody contact surfaces by the body that carries them.
   surface_part.resize(tracker.getNumSurfaces(), Part::Base);
@@ -388,13 +415,27 @@ void SimRobot::Impl::makeIntegrator() {
   integ->setAllowInterpolation(false);
 }
 
-double SimRobot::Impl::driveTorque(const SimTK::State& s, int i, double* demand) const {
+double SimRobot::Impl::driveTorque(int i, double q, double qd, double* demand) const {
   const model::JointCommand& c = commands[i];
-  const double q = pins[i].getOneQ(s, 0);
-  const double qd = pins[i].getOneU(s, 0);
   const double tau = c.kp * (c.q_des - q) + c.kd * (c.qd_des - qd) + c.tau_ff;
   if (demand) *demand = tau;
   return model.joints()[i].actuator.saturate(tau, qd);
+}
+
+void SimRobot::Impl::calcMassCenter(const SimTK::State& s, SimTK::Vec3& p_GC,
+                                    SimTK::Vec3& v_GC) const {
+  double mass = 0.0;
+  SimTK::Vec3 com(0), com_v(0);
+  for (std::size_t b = 0; b < mobods.size(); ++b) {
+    const SimTK::Transform& X_GB = mobods[b].getBodyTransform(s);
+    const SimTK::SpatialVec& V_GB = mobods[b].getBodyVelocity(s);
+    const SimTK::Vec3 r_G = X_GB.R() * link_com[b];  // body origin to body CoM, in G
+    mass += link_mass[b];
+    com += link_mass[b] * (X_GB.p() + r_G);
+    com_v += link_mass[b] * (V_GB[1] + V_GB[0] % r_G);
+  }
+  p_GC = com / mass;
+  v_GC = com_v / mass;
 }
 
 template <class F>
@@ -465,13 +506,15 @@ void SimRobot::read(model::SensorData& out) {
   const SimTK::State& s = m.state();
   m.system.realize(s, SimTK::Stage::Velocity);
   out.t = s.getTime();
+  const SimTK::Vector& all_q = m.matter.getQ(s);
+  const SimTK::Vector& all_u = m.matter.getU(s);
   for (int i = 0; i < model::kNumJoints; ++i) {
     model::JointMeasurement& j = out.joints[i];
-    j.q = m.pins[i].getOneQ(s, 0);
-    j.qd = m.pins[i].getOneU(s, 0);
+    j.q = m.jointQ(all_q, i);
+    j.qd = m.jointU(all_u, i);
     j.tau = m.settings.actuator_update == ActuatorUpdate::ZeroOrderHold
                 ? m.held_torque[i]
-                : m.driveTorque(s, i, nullptr);
+                : m.driveTorque(i, j.q, j.qd, nullptr);
   }
   const SimTK::MobilizedBody& base = m.mobods[0];
   const SimTK::Rotation& R_GB = base.getBodyRotation(s);
@@ -517,7 +560,10 @@ void SimRobot::advance() {
   Impl& m = *impl_;
   if (m.settings.actuator_update == ActuatorUpdate::ZeroOrderHold) {
     const SimTK::State& s = m.state();
-    for (int i = 0; i < model::kNumJoints; ++i) m.held_torque[i] = m.driveTorque(s, i, nullptr);
+    const SimTK::Vector& q = m.matter.getQ(s);
+    const SimTK::Vector& u = m.matter.getU(s);
+    for (int i = 0; i < model::kNumJoints; ++i)
+      m.held_torque[i] = m.driveTorque(i, m.jointQ(q, i), m.jointU(u, i), nullptr);
     m.invalidateForces();
   }
   m.system.realize(m.state(), SimTK::Stage::Velocity);
@@ -575,13 +621,17 @@ void SimRobot::calcGroundTruth(GroundTruth& out, bool with_forces) const {
   out.X_WB = toEigen(base.getBodyTransform(s));
   out.v_WB = toEigen(base.getBodyOriginVelocity(s));
   out.w_WB = toEigen(base.getBodyAngularVelocity(s));
-  out.p_WC = toEigen(m.matter.calcSystemMassCenterLocationInGround(s));
-  out.v_WC = toEigen(m.matter.calcSystemMassCenterVelocityInGround(s));
+  SimTK::Vec3 p_GC, v_GC;
+  m.calcMassCenter(s, p_GC, v_GC);
+  out.p_WC = toEigen(p_GC);
+  out.v_WC = toEigen(v_GC);
+  const SimTK::Vector& q = m.matter.getQ(s);
+  const SimTK::Vector& u = m.matter.getU(s);
   for (int i = 0; i < model::kNumJoints; ++i) {
-    out.q[i] = m.pins[i].getOneQ(s, 0);
-    out.qd[i] = m.pins[i].getOneU(s, 0);
+    out.q[i] = m.jointQ(q, i);
+    out.qd[i] = m.jointU(u, i);
     double demand = 0.0;
-    const double tau = m.driveTorque(s, i, &demand);
+    const double tau = m.driveTorque(i, out.q[i], out.qd[i], &demand);
     out.tau[i] =
         m.settings.actuator_update == ActuatorUpdate::ZeroOrderHold ? m.held_torque[i] : tau;
     out.tau_demand[i] = demand;
