@@ -231,6 +231,32 @@ TEST(SimRobot, RollingWheelsKeepSpeedEqualToOmegaTimesRadius) {
   EXPECT_NEAR(gt.v_WC.y(), 0.0, 1e-3);
 }
 
+TEST(SimRobot, WheelsSlidingSidewaysFeelDynamicFriction) {
+  // A pin wheel cannot roll sideways: pushed sideways, the robot slides on its wheels, and
+  // above three transition speeds Simbody's Stribeck curve gives exactly mu_d, so the
+  // friction on each wheel is mu_d times its normal force, against the slip.
+  const model::RobotModel m = loadRobot();
+  const SimSettings s;
+  SimRobot robot(m, s);
+  const JointVector q = standingPosture(m, 0.36);
+  RobotPlacement p = standing(
+      m, q, calcStandingStatics(m, q, kG).base_height_m - expectedStandingHeight(m, q, s.contact));
+  p.v_WB = Eigen::Vector3d(0.0, 1.3, 0.0);
+  robot.reset(p);
+  GroundTruth gt;
+  for (int k = 0; k < 2; ++k) {  // at the start and 5 ms later (the robot starts to roll)
+    robot.calcGroundTruth(gt);
+    ASSERT_GT(gt.v_WC.y(), 3.0 * s.contact.transition_velocity_m_s);
+    for (const auto& w : gt.wheels) {
+      ASSERT_TRUE(w.in_contact);
+      ASSERT_GT(w.force_W.z(), 10.0);
+      EXPECT_NEAR(-w.force_W.y() / w.force_W.z(), s.contact.dynamic_friction, 5e-3) << k;
+      EXPECT_NEAR(w.force_W.x(), 0.0, 0.01 * w.force_W.z()) << k;
+    }
+    run(robot, holdPosture(m, q), 0.005);
+  }
+}
+
 TEST(SimRobot, RollsDownTheSlopeWithClosedFormAcceleration) {
   const model::RobotModel m = loadRobot();
   const double slope = 20.0 * std::numbers::pi / 180.0;

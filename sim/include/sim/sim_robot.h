@@ -88,9 +88,10 @@ class SimRobot final : public model::RobotInterface {
   void reset(const RobotPlacement& placement);
   /// Simulation time [s].
   double time() const;
-  /// The full state at the current time into `out`. Without `with_forces`, contact flags and
-  /// overlaps are exact but the Simbody contact forces are left zero (saves a force
-  /// evaluation per call; the box-terrain forces are always filled).
+  /// The full state at the current time into `out`. The contact forces of the spheres (on
+  /// the ground and on boxes) are always filled; those of ellipsoid wheels, which Simbody's
+  /// compliant contact subsystem computes, only with `with_forces` (it costs a force
+  /// evaluation per call; without it their flags and overlaps are still exact).
   void calcGroundTruth(GroundTruth& out, bool with_forces = true) const;
   /// Whole-robot mass, centre of mass and central inertia as Simbody computes them, in the
   /// base frame (to compare with RobotModel::calcCompositeInertia).

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -116,12 +117,117 @@ std::vector<Eigen::Vector3d> boxSurfaceSpheres(const Eigen::Vector3d& size, doub
   return out;
 }
 
+// Simbody's compliant contact of a sphere with a half-space, written out so that the ground
+// needs neither ContactTrackerSubsystem nor CompliantContactSubsystem (their broad phase,
+// contact bookkeeping and per-contact virtual calls cost more than the forces themselves).
+// Term by term what ContactTracker::HalfSpaceSphere and ContactForceGenerator::HertzCircular
+// of Simbody 3.7 compute: overlap x = r - height of the centre, contact point halfway into the
+// overlap, effective radius r, f_H = 4/3 k x sqrt(R k x) with k = E^(2/3), Hunt-Crossley
+// f_n = f_H (1 + 3/2 c xdot), no force while f_n <= 0, friction -mu(v) f_n v_t / |v_t| with
+// Simbody's quintic Stribeck curve.
+struct HertzCircularLaw {
+  double k = 0.0;   // combined stiffness^(2/3)
+  double c = 0.0;   // combined dissipation [s/m]
+  double us = 0.0;  // combined static, dynamic and viscous friction
+  double ud = 0.0;
+  double uv = 0.0;
+  double vt = 1.0;     // friction transition velocity [m/s]
+  double oo_vt = 1.0;  // 1 / vt
+};
+
+// Combination rules of HertzCircular for surfaces of materials m1 and m2.
+HertzCircularLaw makeHertzCircularLaw(const SimTK::ContactMaterial& m1,
+                                      const SimTK::ContactMaterial& m2, double vt) {
+  HertzCircularLaw law;
+  const double k1 = m1.getStiffness23(), k2 = m2.getStiffness23();
+  const double s1 = k2 / (k1 + k2), s2 = 1 - s1;
+  law.k = k1 * s1;
+  law.c = m1.getDissipation() * s1 + m2.getDissipation() * s2;
+  const auto mean = [](double a, double b) {
+    double m = 2 * a * b;
+    if (m != 0) m /= (a + b);
+    return m;
+  };
+  law.us = mean(m1.getStaticFriction(), m2.getStaticFriction());
+  law.ud = mean(m1.getDynamicFriction(), m2.getDynamicFriction());
+  law.uv = mean(m1.getViscousFriction(), m2.getViscousFriction());
+  law.vt = vt;
+  law.oo_vt = 1 / vt;
+  return law;
+}
+
+// Simbody's smooth step 10x^3 - 15x^4 + 6x^5 on [0, 1].
+double step5(double x) {
+  const double x3 = x * x * x;
+  return x3 * (10 + x * (6 * x - 15));
+}
+
+// Simbody's friction coefficient at slip speed v (in multiples of the transition velocity):
+// quintic rise from 0 to us at v = 1, quintic fall to ud at v = 3, plus viscous uv v.
+double stribeck(double us, double ud, double uv, double v) {
+  const double mu_wet = uv * v;
+  double mu_dry;
+  if (v >= 3)
+    mu_dry = ud;
+  else if (v >= 1)
+    mu_dry = us - (us - ud) * step5((v - 1) / 2);
+  else
+    mu_dry = us * step5(v);
+  return mu_dry + mu_wet;
+}
+
+// Force of the ground on a sphere of effective radius R overlapping it by x > 0, with `normal`
+// pointing out of the ground and `vel` the velocity of the sphere's material point at the
+// contact point; `potential_energy` receives the elastic energy (0 while pulling, as Simbody).
+SimTK::Vec3 calcHertzCircularForce(const HertzCircularLaw& law, double R, double x,
+                                   const SimTK::UnitVec3& normal, const SimTK::Vec3& vel,
+                                   double& potential_energy) {
+  const double fH = (4. / 3.) * law.k * x * std::sqrt(R * law.k * x);
+  const double xdot = -SimTK::dot(vel, normal);
+  const SimTK::Vec3 vel_normal = -xdot * normal;
+  const SimTK::Vec3 vel_tangent = vel - vel_normal;
+  const double fHC = fH * 1.5 * law.c * xdot;
+  const double f_normal = fH + fHC;
+  if (f_normal <= 0) {
+    potential_energy = 0;
+    return SimTK::Vec3(0);
+  }
+  potential_energy = (2. / 5.) * fH * x;
+  SimTK::Vec3 force_friction(0);
+  const double vslip_sq = vel_tangent.normSqr();
+  if (vslip_sq > SimTK::square(SimTK::SignificantReal)) {
+    const double vslip = std::sqrt(vslip_sq);
+    const double mu = stribeck(law.us, law.ud, law.uv * law.vt, vslip * law.oo_vt);
+    force_friction = (-(f_normal * mu) / vslip) * vel_tangent;
+  }
+  return fH * normal + (fHC * normal + force_friction);
+}
+
+// A sphere fixed to a link, against the ground half-space.
+struct GroundSphere {
+  int link = 0;  // index into RobotModel::links()
+  Part part = Part::Base;
+  int leg = -1;             // 0..3 for wheels and knees
+  SimTK::Vec3 center{0.0};  // in the link frame
+  double radius = 0.0;
+};
+
+// One sphere overlapping the ground.
+struct GroundContact {
+  double depth = 0.0;      // overlap [m]
+  SimTK::Vec3 point{0.0};  // contact point, in G [m]
+  SimTK::Vec3 arm{0.0};    // from the link origin to the contact point, in G [m]
+  SimTK::Vec3 force{0.0};  // force of the ground on the sphere, in G [N]
+  double potential_energy = 0.0;
+};
+
 }  // namespace
 
 //==============================================================================================
 struct SimRobot::Impl {
   class DriveElement;
   class BoxElement;
+  class GroundElement;
 
   Impl(const model::RobotModel& m, const SimSettings& s);
 
@@ -140,6 +246,10 @@ struct SimRobot::Impl {
   // Calls f(group, sphere index, contact) for every sphere overlapping a box.
   template <class F>
   void forEachBoxContact(const SimTK::State& s, F&& f) const;
+  // Calls f(sphere, contact) for every ground sphere overlapping the ground half-space; the
+  // forces are filled once the state is realized to Velocity.
+  template <class F>
+  void forEachGroundContact(const SimTK::State& s, F&& f) const;
   double calcClearance(const SimTK::State& s) const;
   const SimTK::State& state() const { return integ->getState(); }
   // The commands live outside the Simbody state: after changing them, drop the cached forces
@@ -156,13 +266,18 @@ struct SimRobot::Impl {
   SimTK::MultibodySystem system;
   SimTK::SimbodyMatterSubsystem matter;
   SimTK::GeneralForceSubsystem forces;
-  SimTK::ContactTrackerSubsystem tracker;
-  SimTK::CompliantContactSubsystem contact;
+  // Simbody's contact subsystems, only for ellipsoid wheels (HalfSpaceEllipsoid tracker,
+  // HertzElliptical generator); every sphere meets the ground in GroundElement.
+  std::optional<SimTK::ContactTrackerSubsystem> tracker;
+  std::optional<SimTK::CompliantContactSubsystem> contact;
 
   std::vector<SimTK::MobilizedBody> mobods;  // per RobotModel link
   std::array<SimTK::MobilizedBody, model::kNumJoints> pins;
   std::array<int, model::kNumLegs> wheel_link{};
   std::vector<SphereGroup> groups;
+  std::vector<GroundSphere> ground_spheres;
+  SimTK::UnitVec3 ground_normal{SimTK::ZAxis};  // out of the ground, in G (plane through 0)
+  HertzCircularLaw ground_law;
   // Per pin joint, jointIndex() order: index of its q and u in the matter subsystem.
   std::array<SimTK::QIndex, model::kNumJoints> q_index;
   std::array<SimTK::UIndex, model::kNumJoints> u_index;
@@ -170,7 +285,7 @@ struct SimRobot::Impl {
   std::vector<double> link_mass;
   std::vector<SimTK::Vec3> link_com;
 
-  // Classification of Simbody contact surfaces, filled after realizeTopology().
+  // Classification of Simbody's contact surfaces (ellipsoid wheels), after realizeTopology().
   std::vector<Part> surface_part;
   std::vector<int> surface_leg;
   std::vector<bool> surface_is_robot;
@@ -236,6 +351,29 @@ class SimRobot::Impl::BoxElement : public SimTK::Force::Custom::Implementation {
   const Impl& impl_;
 };
 
+// Contact of the wheel, knee and base-corner spheres with the ground half-space (Simbody's
+// Hertz law, see HertzCircularLaw).
+class SimRobot::Impl::GroundElement : public SimTK::Force::Custom::Implementation {
+ public:
+  explicit GroundElement(const Impl& impl) : impl_(impl) {}
+  void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
+                 SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector&) const override {
+    impl_.forEachGroundContact(s, [&](const GroundSphere& g, const GroundContact& c) {
+      body_forces[impl_.mobods[g.link].getMobilizedBodyIndex()] +=
+          SimTK::SpatialVec(c.arm % c.force, c.force);
+    });
+  }
+  SimTK::Real calcPotentialEnergy(const SimTK::State& s) const override {
+    double pe = 0.0;
+    impl_.forEachGroundContact(
+        s, [&](const GroundSphere&, const GroundContact& c) { pe += c.potential_energy; });
+    return pe;
+  }
+
+ private:
+  const Impl& impl_;
+};
+
 //==============================================================================================
 SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
     : model(m),
@@ -243,23 +381,29 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
       law(detail::makeContactLaw(s.contact)),
       matter(system),
       forces(system),
-      tracker(system),
-      contact(system, tracker),
       rng(s.noise.seed) {
   settings.validate();
   const ContactSettings& cs = settings.contact;
   const SimTK::ContactMaterial material(cs.stiffness_pa, cs.dissipation_s_m, cs.static_friction,
                                         cs.dynamic_friction, cs.viscous_friction_s_m);
-  contact.setTransitionVelocity(cs.transition_velocity_m_s);
   SimTK::Force::Gravity(forces, matter, -SimTK::ZAxis, settings.gravity_m_s2);
+  const bool ellipsoid_wheels = cs.wheel_shape == WheelShape::Ellipsoid;
+  if (ellipsoid_wheels) {
+    tracker.emplace(system);
+    contact.emplace(system, *tracker);
+    contact->setTransitionVelocity(cs.transition_velocity_m_s);
+  }
+  ground_law = makeHertzCircularLaw(material, material, cs.transition_velocity_m_s);
 
   // Ground: a half-space occupies x > 0 of its frame; turn that x to point into the ground.
   const Terrain& terrain = settings.terrain;
   if (terrain.has_ground) {
     const SimTK::Rotation R_GH(SimTK::Pi / 2 - terrain.slope_rad, SimTK::YAxis);
-    matter.updGround().updBody().addContactSurface(
-        SimTK::Transform(R_GH),
-        SimTK::ContactSurface(SimTK::ContactGeometry::HalfSpace(), material));
+    ground_normal = SimTK::UnitVec3(-R_GH.x());
+    if (ellipsoid_wheels)
+      matter.updGround().updBody().addContactSurface(
+          SimTK::Transform(R_GH),
+          SimTK::ContactSurface(SimTK::ContactGeometry::HalfSpace(), material));
   }
 
   // Multibody tree: free base, then per leg HAA -> HFE -> KFE -> WHEEL pins. A pin turns
@@ -280,12 +424,10 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
     pins[model::jointIndex(j.leg, j.kind)] = pin;
   }
 
-  // Contact surfaces against the ground (Simbody trackers): wheel, base corners, knees. The
-  // robot's own surfaces form one clique so that they never collide with each other.
+  // Surfaces against the ground: wheel, knee, base corners. Spheres go to GroundElement;
+  // ellipsoid wheels to Simbody's tracker, in one clique so that they never collide with
+  // each other.
   const SimTK::ContactCliqueId clique = SimTK::ContactSurface::createNewContactClique();
-  const auto surface = [&](const SimTK::ContactGeometry& geo) {
-    return SimTK::ContactSurface(geo, material).joinClique(clique);
-  };
   const double r = model.wheelRadius();
   const double base_r = cs.base_sphere_radius_m;
   const double body_r = cs.body_sphere_radius_m;
@@ -295,16 +437,16 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
     const model::JointSpec& knee = model.joint(leg, model::JointKind::KFE);
     wheel_link[l] = wheel.child_link;
     // The loader guarantees the wheel axis is y of the wheel link.
-    if (cs.wheel_shape == WheelShape::Ellipsoid)
+    if (ellipsoid_wheels)
       mobods[wheel.child_link].updBody().addContactSurface(
-          SimTK::Transform(),
-          surface(SimTK::ContactGeometry::Ellipsoid(SimTK::Vec3(r, 0.5 * model.wheelWidth(), r))));
+          SimTK::Transform(), SimTK::ContactSurface(SimTK::ContactGeometry::Ellipsoid(SimTK::Vec3(
+                                                        r, 0.5 * model.wheelWidth(), r)),
+                                                    material)
+                                  .joinClique(clique));
     else
-      mobods[wheel.child_link].updBody().addContactSurface(
-          SimTK::Transform(), surface(SimTK::ContactGeometry::Sphere(r)));
-    mobods[knee.parent_link].updBody().addContactSurface(
-        SimTK::Transform(toVec3(knee.X_PJ.translation())),
-        surface(SimTK::ContactGeometry::Sphere(body_r)));
+      ground_spheres.push_back({wheel.child_link, Part::Wheel, l, SimTK::Vec3(0.0), r});
+    ground_spheres.push_back(
+        {knee.parent_link, Part::Leg, l, toVec3(knee.X_PJ.translation()), body_r});
   }
   const Eigen::Vector3d corner =
       (0.5 * model.baseBoxSize()).cwiseMax(Eigen::Vector3d::Constant(base_r)) -
@@ -312,9 +454,11 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
   for (int i = 0; i < 8; ++i) {
     const Eigen::Vector3d c((i & 1 ? 1 : -1) * corner.x(), (i & 2 ? 1 : -1) * corner.y(),
                             (i & 4 ? 1 : -1) * corner.z());
-    mobods[0].updBody().addContactSurface(SimTK::Transform(toVec3(c)),
-                                          surface(SimTK::ContactGeometry::Sphere(base_r)));
+    ground_spheres.push_back({0, Part::Base, -1, toVec3(c), base_r});
   }
+  // By link, so that forEachGroundContact() fetches each link's pose once.
+  std::stable_sort(ground_spheres.begin(), ground_spheres.end(),
+                   [](const GroundSphere& a, const GroundSphere& b) { return a.link < b.link; });
 
   // Sphere groups against the terrain boxes: wheels, base surface, thighs and shanks.
   {
@@ -351,6 +495,7 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
   }
 
   SimTK::Force::Custom(forces, new DriveElement(*this));
+  if (terrain.has_ground) SimTK::Force::Custom(forces, new GroundElement(*this));
   if (!terrain.boxes.empty()) SimTK::Force::Custom(forces, new BoxElement(*this));
 
   default_state = system.realizeTopology();
@@ -365,13 +510,14 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
     link_com.push_back(mp.getMassCenter());
   }
 
-  // Classify the Simbody contact surfaces by the body that carries them.
-  surface_part.resize(tracker.getNumSurfaces(), Part::Base);
-  surface_leg.resize(tracker.getNumSurfaces(), -1);
-  surface_is_robot.resize(tracker.getNumSurfaces(), false);
-  for (int i = 0; i < tracker.getNumSurfaces(); ++i) {
+  // Classify Simbody's contact surfaces by the body that carries them.
+  const int num_surfaces = tracker ? tracker->getNumSurfaces() : 0;
+  surface_part.resize(num_surfaces, Part::Base);
+  surface_leg.resize(num_surfaces, -1);
+  surface_is_robot.resize(num_surfaces, false);
+  for (int i = 0; i < num_surfaces; ++i) {
     const SimTK::MobilizedBodyIndex mbx =
-        tracker.getMobilizedBody(SimTK::ContactSurfaceIndex(i)).getMobilizedBodyIndex();
+        tracker->getMobilizedBody(SimTK::ContactSurfaceIndex(i)).getMobilizedBodyIndex();
     if (mbx == SimTK::GroundIndex) continue;
     surface_is_robot[i] = true;
     for (int l = 0; l < model::kNumLegs; ++l) {
@@ -436,6 +582,39 @@ void SimRobot::Impl::calcMassCenter(const SimTK::State& s, SimTK::Vec3& p_GC,
   }
   p_GC = com / mass;
   v_GC = com_v / mass;
+}
+
+template <class F>
+void SimRobot::Impl::forEachGroundContact(const SimTK::State& s, F&& f) const {
+  if (!settings.terrain.has_ground) return;
+  const bool with_forces = s.getSystemStage() >= SimTK::Stage::Velocity;
+  const SimTK::Transform* X_GB = nullptr;  // pose of the current link (spheres sorted by link)
+  int link = -1;
+  for (const GroundSphere& g : ground_spheres) {
+    const SimTK::MobilizedBody& mb = mobods[g.link];
+    if (g.link != link) {
+      link = g.link;
+      X_GB = &mb.getBodyTransform(s);
+    }
+    const SimTK::Vec3 center = *X_GB * g.center;
+    const double height = SimTK::dot(ground_normal, center);
+    GroundContact c;
+    c.depth = g.radius - height;
+    if (c.depth <= 0.0) continue;
+    // Halfway into the overlap (the surfaces have equal stiffness).
+    c.point = center - (height + 0.5 * c.depth) * ground_normal;
+    c.arm = c.point - X_GB->p();
+    if (with_forces) {
+      const SimTK::SpatialVec& V_GB = mb.getBodyVelocity(s);
+      const SimTK::Vec3 velocity = V_GB[1] + V_GB[0] % c.arm;
+      c.force = calcHertzCircularForce(ground_law, g.radius, c.depth, ground_normal, velocity,
+                                       c.potential_energy);
+    } else {
+      c.potential_energy = 0.4 * (4. / 3.) * ground_law.k * c.depth *
+                           std::sqrt(g.radius * ground_law.k * c.depth) * c.depth;
+    }
+    f(g, c);
+  }
 }
 
 template <class F>
@@ -615,7 +794,8 @@ double SimRobot::time() const {
 void SimRobot::calcGroundTruth(GroundTruth& out, bool with_forces) const {
   const Impl& m = *impl_;
   const SimTK::State& s = m.state();
-  m.system.realize(s, with_forces ? SimTK::Stage::Dynamics : SimTK::Stage::Velocity);
+  // Only Simbody's compliant contact subsystem (ellipsoid wheels) needs the Dynamics stage.
+  m.system.realize(s, with_forces && m.contact ? SimTK::Stage::Dynamics : SimTK::Stage::Velocity);
   const SimTK::MobilizedBody& base = m.mobods[0];
   out.t = s.getTime();
   out.X_WB = toEigen(base.getBodyTransform(s));
@@ -652,32 +832,39 @@ void SimRobot::calcGroundTruth(GroundTruth& out, bool with_forces) const {
       out.legs_in_contact = true;
     }
   };
-  // Ground contacts through Simbody's contact tracker (overlap) and compliant contact
+  // Ground contacts of the spheres (their forces need only the Velocity stage).
+  m.forEachGroundContact(s, [&](const GroundSphere& g, const GroundContact& c) {
+    record(g.part, g.leg, toEigen(c.force), c.depth);
+  });
+  // Ellipsoid wheels through Simbody's contact tracker (overlap) and compliant contact
   // subsystem (forces, Dynamics stage).
-  const SimTK::ContactSnapshot& active = m.tracker.getActiveContacts(s);
-  const auto depthOf = [](const SimTK::Contact& c) {
-    if (SimTK::CircularPointContact::isInstance(c))
-      return SimTK::CircularPointContact::getAs(c).getDepth();
-    if (SimTK::EllipticalPointContact::isInstance(c))
-      return SimTK::EllipticalPointContact::getAs(c).getDepth();
-    return 0.0;
-  };
-  const auto recordContact = [&](const SimTK::Contact& c, const SimTK::Vec3& force_on_2) {
-    const int s2 = c.getSurface2();
-    const bool robot_is_2 = m.surface_is_robot[s2];
-    const int rs = robot_is_2 ? s2 : static_cast<int>(c.getSurface1());
-    record(m.surface_part[rs], m.surface_leg[rs], toEigen(force_on_2) * (robot_is_2 ? 1.0 : -1.0),
-           depthOf(c));
-  };
-  if (with_forces) {
-    for (int k = 0; k < m.contact.getNumContactForces(s); ++k) {
-      const SimTK::ContactForce& f = m.contact.getContactForce(s, k);
-      const SimTK::Contact& c = active.getContactById(f.getContactId());
-      if (!c.isEmpty()) recordContact(c, f.getForceOnSurface2()[1]);
+  if (m.tracker) {
+    const SimTK::ContactSnapshot& active = m.tracker->getActiveContacts(s);
+    const auto depthOf = [](const SimTK::Contact& c) {
+      if (SimTK::CircularPointContact::isInstance(c))
+        return SimTK::CircularPointContact::getAs(c).getDepth();
+      if (SimTK::EllipticalPointContact::isInstance(c))
+        return SimTK::EllipticalPointContact::getAs(c).getDepth();
+      return 0.0;
+    };
+    const auto recordContact = [&](const SimTK::Contact& c, const SimTK::Vec3& force_on_2) {
+      const int s2 = c.getSurface2();
+      const bool robot_is_2 = m.surface_is_robot[s2];
+      const int rs = robot_is_2 ? s2 : static_cast<int>(c.getSurface1());
+      record(m.surface_part[rs], m.surface_leg[rs], toEigen(force_on_2) * (robot_is_2 ? 1.0 : -1.0),
+             depthOf(c));
+    };
+    if (with_forces) {
+      for (int k = 0; k < m.contact->getNumContactForces(s); ++k) {
+        const SimTK::ContactForce& f = m.contact->getContactForce(s, k);
+        const SimTK::Contact& c = active.getContactById(f.getContactId());
+        if (!c.isEmpty()) recordContact(c, f.getForceOnSurface2()[1]);
+      }
+    } else {
+      for (int k = 0; k < active.getNumContacts(); ++k)
+        if (depthOf(active.getContact(k)) > 0.0)
+          recordContact(active.getContact(k), SimTK::Vec3(0));
     }
-  } else {
-    for (int k = 0; k < active.getNumContacts(); ++k)
-      if (depthOf(active.getContact(k)) > 0.0) recordContact(active.getContact(k), SimTK::Vec3(0));
   }
   // Box contacts through the custom force element.
   m.forEachBoxContact(s, [&](const SphereGroup& g, const detail::SphereContact& c) {
