@@ -225,6 +225,7 @@ struct GroundContact {
 
 //==============================================================================================
 struct SimRobot::Impl {
+  class GravityElement;
   class DriveElement;
   class BoxElement;
   class GroundElement;
@@ -305,6 +306,37 @@ struct SimRobot::Impl {
 };
 
 //==============================================================================================
+// Uniform gravity on every link: what SimTK::Force::Gravity computes (m g at the link's centre
+// of mass, potential energy -m g . p_CoM), with the mass properties cached instead of looked
+// up per evaluation; Force::Gravity's look-ups and whole-vector addition cost more than the
+// arithmetic.
+class SimRobot::Impl::GravityElement : public SimTK::Force::Custom::Implementation {
+ public:
+  explicit GravityElement(const Impl& impl)
+      : impl_(impl), gravity_(0.0, 0.0, -impl.settings.gravity_m_s2) {}
+  void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
+                 SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector&) const override {
+    for (std::size_t b = 0; b < impl_.mobods.size(); ++b) {
+      const SimTK::Vec3 p_CB_G = impl_.mobods[b].getBodyTransform(s).R() * impl_.link_com[b];
+      const SimTK::Vec3 F_CB_G = impl_.link_mass[b] * gravity_;
+      body_forces[impl_.mobods[b].getMobilizedBodyIndex()] +=
+          SimTK::SpatialVec(p_CB_G % F_CB_G, F_CB_G);
+    }
+  }
+  SimTK::Real calcPotentialEnergy(const SimTK::State& s) const override {
+    double pe = 0.0;
+    for (std::size_t b = 0; b < impl_.mobods.size(); ++b) {
+      const SimTK::Vec3 p_G_CB = impl_.mobods[b].getBodyTransform(s) * impl_.link_com[b];
+      pe -= impl_.link_mass[b] * (~gravity_ * p_G_CB);
+    }
+    return pe;
+  }
+
+ private:
+  const Impl& impl_;
+  SimTK::Vec3 gravity_;  // in G [m/s^2]
+};
+
 // The drives: one Force::Custom applying tau_i to the mobility of each pin joint.
 class SimRobot::Impl::DriveElement : public SimTK::Force::Custom::Implementation {
  public:
@@ -386,7 +418,7 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
   const ContactSettings& cs = settings.contact;
   const SimTK::ContactMaterial material(cs.stiffness_pa, cs.dissipation_s_m, cs.static_friction,
                                         cs.dynamic_friction, cs.viscous_friction_s_m);
-  SimTK::Force::Gravity(forces, matter, -SimTK::ZAxis, settings.gravity_m_s2);
+  SimTK::Force::Custom(forces, new GravityElement(*this));
   const bool ellipsoid_wheels = cs.wheel_shape == WheelShape::Ellipsoid;
   if (ellipsoid_wheels) {
     tracker.emplace(system);
