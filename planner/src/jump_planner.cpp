@@ -148,7 +148,16 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     r.de = de::Solver(first).solve(problem, options.warm_start, options.cancel);
     attempt_bests.emplace_back(r.de.best.cost, r.de.best_x);
   }
-  for (int restart = 1; !r.de.best.feasible && restart <= settings_.de_restarts; ++restart) {
+  // A restart is for an attempt trapped in a penalty basin: its best violates a constraint.
+  // When the best meets every constraint and only misses the target, the target is what is out
+  // of reach (the attempts end at the same frontier), so the budget is not spent again.
+  auto trapped = [&model](const Eigen::VectorXd& x) {
+    Evaluation ev;
+    model.evaluate(x, ev);
+    return !ev.constraints_ok;
+  };
+  for (int restart = 1;
+       !r.de.best.feasible && restart <= settings_.de_restarts && trapped(r.de.best_x); ++restart) {
     const bool cut_short = r.de.stop_reason == de::StopReason::Cancelled ||
                            r.de.stop_reason == de::StopReason::TimeBudget;
     const std::int64_t left = total_budget - r.de.evaluations;

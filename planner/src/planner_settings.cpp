@@ -65,7 +65,10 @@ PlannerSettings::PlannerSettings() {
   de.initialization = de::Initialization::LatinHypercube;
   de.max_generations = 1000;
   de.max_evaluations = 12000;
-  de.stagnation_generations = 40;
+  de.stagnation_generations = 20;
+  // Progress is a 0.1 % drop of the best cost within those generations: an unreachable target
+  // otherwise creeps on by tiny amounts until the budget is spent.
+  de.stagnation_tolerance = 1e-3;
   // Stop once a feasible candidate is within about one tolerance of the target: the Ipopt
   // polish then meets the target exactly at lower energy.
   de.target_cost = 1.0;
@@ -301,6 +304,7 @@ PlannerSettings parse(const YAML::Node& root) {
               {"time_budget_s", number(d.time_budget_s)},
               {"tolerance", number(d.tolerance)},
               {"stagnation_generations", integer(d.stagnation_generations)},
+              {"stagnation_tolerance", number(d.stagnation_tolerance)},
               {"target_cost", number(d.target_cost)},
               {"restarts", integer(s.de_restarts)},
               {"threads", integer(d.threads)},

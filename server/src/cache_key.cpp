@@ -183,6 +183,7 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.put(d.max_generations);
   w.put(d.max_evaluations);
   w.put(d.stagnation_generations);
+  w.putDouble(d.stagnation_tolerance);
   w.put(d.seed);
   w.put(d.shade_memory_size);
   // d.threads and d.keep_log do not change the result (same seed, same plan at any count).

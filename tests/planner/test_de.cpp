@@ -582,6 +582,24 @@ TEST(de_Stopping, StopsOnStagnation) {
   EXPECT_EQ(r.generations, 5);
 }
 
+// With a relative stagnation tolerance, slow progress counts as stagnation: on the sphere the
+// best keeps dropping every few generations, by less than half within 5 generations late on.
+TEST(de_Stopping, StagnationToleranceCountsSlowProgressAsStagnation) {
+  const FunctionProblem problem(3, -5.0, 5.0, sphere);
+  Settings s = quickSettings();
+  s.max_generations = 2000;
+  s.stagnation_generations = 5;
+  const Result strict = Solver(s).solve(problem);
+  s.stagnation_tolerance = 0.5;
+  const Result loose = Solver(s).solve(problem);
+  EXPECT_EQ(loose.stop_reason, StopReason::Stagnation);
+  EXPECT_LT(loose.generations, strict.generations);
+  // The last 5 generations lowered the best by less than half of where the window began.
+  const auto& log = loose.log;
+  ASSERT_GT(log.size(), 6u);
+  EXPECT_GT(log.back().best_cost, 0.5 * log[log.size() - 6].best_cost);
+}
+
 TEST(de_Stopping, StopsAtTheTargetCost) {
   const FunctionProblem problem(3, -5.0, 5.0, sphere);
   Settings s = quickSettings();
@@ -705,6 +723,7 @@ TEST(de_Validation, RejectsBadSettings) {
   expectInvalidSetting([](Settings& s) { s.tolerance = std::nan(""); }, "tolerance");
   expectInvalidSetting([](Settings& s) { s.stagnation_generations = -1; },
                        "stagnation_generations");
+  expectInvalidSetting([](Settings& s) { s.stagnation_tolerance = 1.0; }, "stagnation_tolerance");
   expectInvalidSetting([](Settings& s) { s.target_cost = std::nan(""); }, "target_cost");
   expectInvalidSetting([](Settings& s) { s.threads = 0; }, "threads");
   expectInvalidSetting([](Settings& s) { s.shade_memory_size = -2; }, "shade_memory_size");

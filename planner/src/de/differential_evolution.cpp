@@ -278,11 +278,14 @@ class Run {
     });
   }
 
-  /// Resets the stagnation counter if the best cost dropped by more than 1e-12 relative.
+  /// Resets the stagnation counter if the best cost dropped by more than stagnation_tolerance
+  /// (relative) since the counter was last reset.
   void updateStagnation() {
     const double best = bestFitness().cost;
     const double ref = stagnation_reference_;
-    const bool improved = std::isfinite(ref) ? best < ref - 1e-12 * std::abs(ref) : best < ref;
+    const bool improved = std::isfinite(ref)
+                              ? best < ref - settings_.stagnation_tolerance * std::abs(ref)
+                              : best < ref;
     if (improved) {
       stagnation_reference_ = best;
       stagnant_generations_ = 0;
@@ -454,6 +457,8 @@ void Settings::validate() const {
   require(tolerance >= 0.0, "tolerance", ">= 0 (0 = off)", tolerance);
   require(stagnation_generations >= 0, "stagnation_generations", ">= 0 (0 = off)",
           stagnation_generations);
+  require(stagnation_tolerance >= 0.0 && stagnation_tolerance < 1.0, "stagnation_tolerance",
+          "in [0, 1)", stagnation_tolerance);
   require(!std::isnan(target_cost), "target_cost", "a number or -inf (not NaN)", target_cost);
   require(threads >= 1, "threads", ">= 1", threads);
   require(shade_memory_size >= 0, "shade_memory_size", ">= 0 (0 = population_size)",

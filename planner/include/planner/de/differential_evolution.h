@@ -105,6 +105,8 @@ struct Settings {
   double time_budget_s = 0.0;                ///< wall-time limit; 0 = none
   double tolerance = 0.0;                    ///< stop when max - min cost < tolerance; 0 = off
   int stagnation_generations = 0;            ///< 0 = off
+  /// Relative drop of the best cost that counts as progress for the stagnation test, in [0, 1).
+  double stagnation_tolerance = 1e-12;
   double target_cost = -std::numeric_limits<double>::infinity();  ///< stop at a feasible one <=
   int threads = 1;         ///< OpenMP threads for evaluation, >= 1
   std::uint64_t seed = 1;  ///< seed of the only random source
