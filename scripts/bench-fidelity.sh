@@ -9,6 +9,10 @@
 #   dx      |simulated - planned touchdown CoM x| <= 0.05 m
 #   envelope  take-off demand / envelope torque limit <= 1, no speed or joint-range failure
 #   upright   landed upright (verifier's landed_upright)
+# Diagnostics per seed: error.dx_at_planned_touchdown_height_m (the simulated flight carried
+# ballistically to the CoM height of the plan's touchdown) and planned_touchdown_wheel_gap_m
+# (lowest wheel's distance to the terrain in the plan's touchdown state; < 0: the plan's
+# touchdown comes after the first wheel contact, which is what the simulation measures).
 # Usage: scripts/bench-fidelity.sh [build dir] [seeds] [tasks]
 #   seeds: a count N (seeds 1..N, default 10) or a comma-separated list (e.g. 3,7)
 #   tasks: comma-separated sim_jump presets (default forward,vertical)

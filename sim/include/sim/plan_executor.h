@@ -38,8 +38,10 @@ struct ExecutorSettings {
   double flight_kd = 2.0;   ///< leg damping in flight [Nm s/rad]
   /// Plans without flight samples: quintic blend from the take-off state to q_landing [s].
   double flight_blend_s = 0.12;
-  double joint_limit_margin_rad = 0.05;     ///< flight references stay this far inside the range
-  double landing_kp = 60.0;                 ///< leg stiffness of the landing posture [Nm/rad]
+  double joint_limit_margin_rad = 0.05;  ///< flight references stay this far inside the range
+  /// Leg stiffness of the landing posture [Nm/rad]: the robot client's (config/
+  /// robot_client.yaml); 60 let the robot tip onto its front wheels while braking from 3 m/s.
+  double landing_kp = 120.0;
   double landing_kd = 2.5;                  ///< leg damping of the landing posture [Nm s/rad]
   bool landing_gravity_feedforward = true;  ///< add the standing statics torques of q_landing
   double landing_wheel_decel_m_s2 = 2.0;    ///< wheel speed reference ramps to 0 at this rate
