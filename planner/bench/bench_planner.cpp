@@ -4,7 +4,7 @@
 //  - the feasibility rate over a grid of run-up speeds (v0 = 0..3 m/s step 0.25, 10 seeds);
 //  - pagmo2's de and sade on the same objective with the same evaluation budget and seeds:
 //    time to the first feasible candidate and final cost, against our DE.
-// Usage: bench_planner [--quick] > result.json
+// Usage: bench_planner [--quick] [--only cold|warm|grid|pagmo|backflip] > result.json
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -17,6 +17,7 @@
 #include <pagmo/algorithms/sade.hpp>
 #include <pagmo/population.hpp>
 #include <pagmo/problem.hpp>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -92,7 +93,25 @@ json runPagmo(const std::string& algo, const JumpPlanner& planner, const Scenari
 }  // namespace
 
 int main(int argc, char** argv) {
-  const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
+  bool quick = false;
+  std::string only;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--quick") == 0) {
+      quick = true;
+    } else if (std::strcmp(argv[i], "--only") == 0 && i + 1 < argc) {
+      only = argv[++i];
+      if (only != "cold" && only != "warm" && only != "grid" && only != "pagmo" &&
+          only != "backflip") {
+        std::cerr << "bench_planner: --only takes cold, warm, grid, pagmo or backflip, got '"
+                  << only << "'\n";
+        return 2;
+      }
+    } else {
+      std::cerr << "usage: bench_planner [--quick] [--only cold|warm|grid|pagmo|backflip]\n";
+      return 2;
+    }
+  }
+  auto part = [&only](const char* name) { return only.empty() || only == name; };
   const int runs = quick ? 3 : 10;
   const int grid_seeds = quick ? 3 : 10;
   const JumpPlanner planner(wj::model::RobotModel::loadDefault(), PlannerSettings{});
@@ -100,7 +119,7 @@ int main(int argc, char** argv) {
   out["machine_threads"] = static_cast<int>(std::thread::hardware_concurrency());
 
   // 1. Cold solves of the presets.
-  for (const auto& name : presetNames()) {
+  for (const auto& name : part("cold") ? presetNames() : std::vector<std::string>{}) {
     const Scenario sc = makePreset(planner, name);
     for (const int threads : {1, 2}) {
       std::vector<double> total, de_ms, polish_ms;
@@ -126,8 +145,8 @@ int main(int argc, char** argv) {
   }
 
   // 2. Warm start from a neighbouring run-up speed (what the cache does on a miss).
-  {
-    std::vector<double> warm_ms, cold_ms;
+  if (part("warm")) {
+    std::vector<double> warm_ms, cold_ms, warm_de_ms, warm_polish_ms, warm_evaluations;
     int feasible = 0;
     for (int s = 1; s <= runs; ++s) {
       const Scenario base = makePreset(planner, "forward_hw", 3.0);
@@ -139,18 +158,24 @@ int main(int argc, char** argv) {
       o.seed = static_cast<std::uint64_t>(100 + s);
       const PlannerResult r1 = planner.plan(next.task, next.initial, o);
       warm_ms.push_back(r1.total_ms);
+      warm_de_ms.push_back(r1.de_ms);
+      warm_polish_ms.push_back(r1.polish_ms);
+      warm_evaluations.push_back(static_cast<double>(r1.de.evaluations));
       cold_ms.push_back(r0.total_ms);
       feasible += r1.evaluation.feasible;
     }
     out["warm_start"] = {{"task", "forward_hw 3.00 -> 3.05 m/s"},
                          {"median_ms", median(warm_ms)},
+                         {"median_de_ms", median(warm_de_ms)},
+                         {"median_polish_ms", median(warm_polish_ms)},
+                         {"median_evaluations", median(warm_evaluations)},
                          {"cold_median_ms", median(cold_ms)},
                          {"feasible", feasible},
                          {"runs", runs}};
   }
 
   // 3. Feasibility over a grid of run-up speeds, forward_hw preset (0.12 m obstacle at 1.2 m).
-  {
+  if (part("grid")) {
     json grid = json::array();
     int counted_runs = 0, counted_feasible = 0;
     for (int k = 0; k <= 12; ++k) {
@@ -175,7 +200,7 @@ int main(int argc, char** argv) {
   }
 
   // 4. Against pagmo2 at equal evaluation budgets and seeds (DE only, no polish).
-  {
+  if (part("pagmo")) {
     const long budget = planner.settings().de.max_evaluations;
     const int pop = planner.settings().de.population_size;
     for (const auto& name : presetNames()) {
@@ -229,7 +254,7 @@ int main(int argc, char** argv) {
     }
   }
   // 5. Backflip what-if: how much stronger must the actuators be (paper: 57 Nm at the knee)?
-  {
+  if (part("backflip")) {
     json study = json::array();
     for (const double scale : {1.0, 1.5, 2.0}) {
       PlannerSettings s = planner.settings();

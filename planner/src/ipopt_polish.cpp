@@ -3,6 +3,7 @@
 #include <coin/IpTNLP.hpp>
 #include <cstdlib>
 #include <limits>
+#include <map>
 #include <mutex>
 #include <vector>
 
@@ -15,6 +16,8 @@ namespace {
 // Constraint violation (scaled margins, target residuals) at which a point counts as meeting
 // the constraints; the full evaluation re-checks every sample before the point is accepted.
 constexpr double kConstraintTolerance = 1e-6;
+// Scaled margin below which a sampled constraint can become active during the polish.
+constexpr double kActiveMargin = 3.0;
 
 // MUMPS' sequential build shares Fortran state between instances: one solve at a time.
 std::mutex& ipoptMutex() {
@@ -37,15 +40,38 @@ class PolishNlp final : public Ipopt::TNLP {
       if (hi[i] > lo[i]) free_.push_back(i);
     Eigen::VectorXd g(model.numConstraintSamples());
     Eigen::Vector4d e;
-    if (model.evaluateConstraints(u0, g, e, nullptr)) {
-      for (int i = 0; i < g.size(); ++i)
-        if (g[i] < 3.0) active_.push_back(i);
-    }
+    if (model.evaluateConstraints(u0, g, e, nullptr)) selectActive(model, g);
     apex_ = model.task().target.event == TargetEvent::Apex;
     residuals_ = apex_ ? std::vector<int>{0, 1, 2} : std::vector<int>{0, 2};
     m_ = static_cast<int>(active_.size() + residuals_.size()) + (apex_ ? 1 : 0);
     g_full_.resize(model.numConstraintSamples());
     best_u_ = u0;
+  }
+
+  // The samples passed to Ipopt: those within kActiveMargin (scaled) of their bound that are a
+  // local minimum of their channel over time, and the samples on either side of such a minimum
+  // (the minimum can move by a sample as u changes). A margin sampled densely along a smooth
+  // trajectory otherwise enters as a dozen nearly parallel rows, which only slows MUMPS down; the
+  // full set is re-checked by the caller before a result is accepted.
+  void selectActive(const JumpModel& model, const Eigen::VectorXd& g) {
+    const int n = static_cast<int>(g.size());
+    std::map<int, std::vector<int>> channels;  // channel -> sample indices in time order
+    for (int i = 0; i < n; ++i) channels[model.constraintSampleOrigin(i).channel].push_back(i);
+    std::vector<bool> keep(n, false);
+    for (const auto& [channel, idx] : channels) {
+      const int m = static_cast<int>(idx.size());
+      for (int k = 0; k < m; ++k) {
+        const double v = g[idx[k]];
+        if (!(v < kActiveMargin)) continue;
+        const bool left_ok = k == 0 || v <= g[idx[k - 1]];
+        const bool right_ok = k == m - 1 || v <= g[idx[k + 1]];
+        if (!(left_ok && right_ok)) continue;
+        for (int d = -1; d <= 1; ++d)
+          if (k + d >= 0 && k + d < m) keep[idx[k + d]] = true;
+      }
+    }
+    for (int i = 0; i < n; ++i)
+      if (keep[i]) active_.push_back(i);
   }
 
   const Eigen::VectorXd& solution() const { return best_u_; }
@@ -69,7 +95,7 @@ class PolishNlp final : public Ipopt::TNLP {
     }
     Ipopt::Index k = 0;
     for (std::size_t i = 0; i < active_.size(); ++i, ++k) {
-      g_l[k] = 0.0;
+      g_l[k] = model_.settings().polish_backoff;
       g_u[k] = 2e19;
     }
     for (std::size_t i = 0; i < residuals_.size(); ++i, ++k) g_l[k] = g_u[k] = 0.0;
@@ -212,7 +238,7 @@ class PolishNlp final : public Ipopt::TNLP {
     const int n_ineq = static_cast<int>(active_.size());
     for (int k = 0; k < m_; ++k) {
       if (k < n_ineq) {
-        violation = std::max(violation, -c0_[k]);
+        violation = std::max(violation, model_.settings().polish_backoff - c0_[k]);
       } else if (k < n_ineq + static_cast<int>(residuals_.size())) {
         violation = std::max(violation, std::abs(c0_[k]));
       } else {

@@ -972,12 +972,24 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
     set(kTakeoffDpitch, s.two_step_takeoff_dpitch_rad);
     set(kTakeoffRate, s.two_step_takeoff_pitch_rate_rad_s);
   }
-  const int per_contact = 2 * 15 + 1 + (task_.obstacle ? 1 : 0);
-  const int per_flight = 1 + (task_.obstacle ? 1 : 0);
-  num_constraint_samples_ =
-      per_contact *
-          (s.samples_phase1 + (task_.mode == TakeoffMode::TwoStep ? s.samples_phase2 : 0)) +
-      per_flight * s.samples_flight + (task_.obstacle ? 1 : 0);
+  per_contact_sample_ = 2 * 15 + 1 + (task_.obstacle ? 1 : 0);
+  per_flight_sample_ = 1 + (task_.obstacle ? 1 : 0);
+  num_contact_samples_ =
+      s.samples_phase1 + (task_.mode == TakeoffMode::TwoStep ? s.samples_phase2 : 0);
+  num_constraint_samples_ = per_contact_sample_ * num_contact_samples_ +
+                            per_flight_sample_ * s.samples_flight + (task_.obstacle ? 1 : 0);
+}
+
+JumpModel::SampleOrigin JumpModel::constraintSampleOrigin(int i) const {
+  if (i < 0 || i >= num_constraint_samples_)
+    throw std::out_of_range("JumpModel::constraintSampleOrigin: " + std::to_string(i) +
+                            " not in [0, " + std::to_string(num_constraint_samples_) + ")");
+  const int contact = per_contact_sample_ * num_contact_samples_;
+  if (i < contact) return {i % per_contact_sample_, i / per_contact_sample_};
+  const int j = i - contact;
+  const int flight = per_flight_sample_ * settings_.samples_flight;
+  if (j < flight) return {per_contact_sample_ + j % per_flight_sample_, j / per_flight_sample_};
+  return {per_contact_sample_ + per_flight_sample_, 0};  // landing beyond the obstacle
 }
 
 Eigen::Vector2d JumpModel::comInBase(const Eigen::Vector2d& q_hind,

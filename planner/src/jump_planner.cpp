@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <random>
 #include <sstream>
 
 namespace wj::planner {
@@ -98,6 +99,34 @@ const char* toString(PolishOutcome o) {
   return "?";
 }
 
+Eigen::MatrixXd JumpPlanner::warmCloud(const JumpModel& model, const Eigen::MatrixXd& warm,
+                                       std::uint64_t seed) const {
+  const int k = static_cast<int>(warm.cols());
+  const int extra = settings_.warm_start_cloud;
+  if (k == 0 || extra == 0) return warm;
+  // The given points first, then `extra` Gaussian perturbations of them in turn (sigma a
+  // fraction of each variable's range; fixed variables stay fixed). A polished neighbour sits
+  // on its active bounds, so at the new velocity it is usually just infeasible while a point a
+  // little inside is not (docs/planner.md, "Warm start").
+  const Eigen::VectorXd range = model.upperBounds() - model.lowerBounds();
+  Eigen::MatrixXd out(warm.rows(), k + extra);
+  out.leftCols(k) = warm;
+  std::mt19937_64 rng(seed ^ 0xA5A5A5A5DEADBEEFULL);
+  auto gaussian = [&rng] {
+    // Box-Muller from two 53-bit uniforms in (0, 1]: the same numbers on every platform.
+    const double u1 = (static_cast<double>(rng() >> 11) + 1.0) * 0x1.0p-53;
+    const double u2 = static_cast<double>(rng() >> 11) * 0x1.0p-53;
+    return std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * M_PI * u2);
+  };
+  for (int j = 0; j < extra; ++j) {
+    Eigen::VectorXd x = warm.col(j % k);
+    for (Eigen::Index i = 0; i < x.size(); ++i)
+      x[i] += settings_.warm_start_spread * range[i] * gaussian();
+    out.col(k + j) = x;
+  }
+  return out;
+}
+
 JumpPlanner::JumpPlanner(model::RobotModel robot, PlannerSettings settings)
     : robot_(std::move(robot)), settings_(std::move(settings)) {
   settings_.validate();
@@ -145,7 +174,8 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   {
     de::Settings first = des;
     first.max_evaluations = std::min(attempt_budget, total_budget);
-    r.de = de::Solver(first).solve(problem, options.warm_start, options.cancel);
+    r.de = de::Solver(first).solve(problem, warmCloud(model, options.warm_start, des.seed),
+                                   options.cancel);
     attempt_bests.emplace_back(r.de.best.cost, r.de.best_x);
   }
   // A restart is for an attempt trapped in a penalty basin: its best violates a constraint.

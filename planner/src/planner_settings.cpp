@@ -148,6 +148,12 @@ void PlannerSettings::validate() const {
   check(polish_retries >= 0 && polish_retries <= 16, "polish.retries", "in [0, 16]",
         polish_retries);
   check(polish_stall_iterations >= 0, "polish.stall_iterations", ">= 0", polish_stall_iterations);
+  check(warm_start_cloud >= 0 && warm_start_cloud <= 1000, "de.warm_start_cloud", "in [0, 1000]",
+        warm_start_cloud);
+  check(warm_start_spread >= 0 && warm_start_spread <= 0.5, "de.warm_start_spread", "in [0, 0.5]",
+        warm_start_spread);
+  check(polish_backoff >= 0 && polish_backoff <= 0.5, "polish.backoff", "in [0, 0.5]",
+        polish_backoff);
   de.validate();
 }
 
@@ -307,6 +313,8 @@ PlannerSettings parse(const YAML::Node& root) {
               {"stagnation_tolerance", number(d.stagnation_tolerance)},
               {"target_cost", number(d.target_cost)},
               {"restarts", integer(s.de_restarts)},
+              {"warm_start_cloud", integer(s.warm_start_cloud)},
+              {"warm_start_spread", number(s.warm_start_spread)},
               {"threads", integer(d.threads)},
               {"seed", [&](const YAML::Node& v) { d.seed = v.as<std::uint64_t>(); }}});
        }},
@@ -317,7 +325,8 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"max_iterations", integer(s.polish_max_iterations)},
                       {"tolerance", number(s.polish_tolerance)},
                       {"retries", integer(s.polish_retries)},
-                      {"stall_iterations", integer(s.polish_stall_iterations)}});
+                      {"stall_iterations", integer(s.polish_stall_iterations)},
+                      {"backoff", number(s.polish_backoff)}});
        }},
   };
   readSection(root, "", top);

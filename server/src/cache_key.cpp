@@ -188,11 +188,14 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.put(d.shade_memory_size);
   // d.threads and d.keep_log do not change the result (same seed, same plan at any count).
   w.put(s.de_restarts);
+  w.put(s.warm_start_cloud);
+  w.putDouble(s.warm_start_spread);
   w.putBool(s.polish);
   w.put(s.polish_max_iterations);
   w.putDouble(s.polish_tolerance);
   w.put(s.polish_retries);
   w.put(s.polish_stall_iterations);
+  w.putDouble(s.polish_backoff);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
@@ -356,6 +357,47 @@ TEST(JumpPlanner, HardwareForwardPresetIsFeasible) {
   EXPECT_LE(r.final_cost, r.de_cost);
   EXPECT_GE(r.plan.numSamples(), static_cast<int>(r.plan.t3 / 0.002));
   EXPECT_EQ(r.plan.q.rows(), r.plan.numSamples());
+}
+
+// What the cache does on a miss: the plan of the neighbouring velocity bin as warm start. Its
+// cloud of perturbations puts a feasible point in the first generations, and the polish keeps
+// its margins off their bounds.
+TEST(JumpPlanner, WarmStartFromTheNeighbouringBinIsFeasibleWithinThreeGenerations) {
+  const JumpPlanner planner = makePlanner();
+  const Scenario a = makePreset(planner, "forward_hw", 3.0);
+  const PlannerResult ra = planner.plan(a.task, a.initial);
+  ASSERT_TRUE(ra.evaluation.feasible) << ra.summary;
+  const Scenario b = makePreset(planner, "forward_hw", 3.05);
+  PlanOptions o;
+  o.warm_start = ra.u;
+  const PlannerResult rb = planner.plan(b.task, b.initial, o);
+  EXPECT_TRUE(rb.evaluation.feasible) << rb.summary;
+  // Within the first generations: a cold solve at this speed needs ~1,000 evaluations.
+  EXPECT_LE(rb.de.evaluations, 3 * planner.settings().de.population_size);
+  EXPECT_LT(5 * rb.de.evaluations, planner.plan(b.task, b.initial).de.evaluations);
+  // The same seed and warm start give the same plan.
+  EXPECT_EQ(planner.plan(b.task, b.initial, o).u, rb.u);
+  // Polished with a back-off: every class keeps a margin.
+  for (int i = 0; i < kNumConstraintClasses; ++i)
+    EXPECT_GT(rb.evaluation.margins[i].worst, 0.0) << toString(static_cast<ConstraintClass>(i));
+}
+
+// Constraint samples of one channel are one margin along time: same class at every step.
+TEST(JumpModel, ConstraintSamplesFormChannelsAlongTime) {
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "forward");
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  std::map<int, std::vector<int>> steps;
+  for (int i = 0; i < m.numConstraintSamples(); ++i) {
+    const auto o = m.constraintSampleOrigin(i);
+    steps[o.channel].push_back(o.step);
+  }
+  const int per_contact = static_cast<int>(steps.size()) - 3;  // body, obstacle; landing
+  EXPECT_EQ(per_contact, 32);
+  for (const auto& [channel, s] : steps)
+    for (std::size_t k = 0; k < s.size(); ++k) EXPECT_EQ(s[k], static_cast<int>(k)) << channel;
+  EXPECT_EQ(steps[0].size(), static_cast<std::size_t>(planner.settings().samples_phase1));
+  EXPECT_THROW(m.constraintSampleOrigin(m.numConstraintSamples()), std::out_of_range);
 }
 
 TEST(JumpPlanner, UnreachableTargetNamesTheBindingConstraints) {

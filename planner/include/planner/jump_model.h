@@ -81,6 +81,13 @@ class JumpModel {
 
   /// Number of individual constraint samples (fixed for this model), for the polish.
   int numConstraintSamples() const { return num_constraint_samples_; }
+  /// Where constraint sample i of evaluateConstraints() comes from: the same margin (a joint's
+  /// torque, a wheel's normal force, ...) sampled over time forms one channel.
+  struct SampleOrigin {
+    int channel = 0;  ///< which margin
+    int step = 0;     ///< index along time within the channel
+  };
+  SampleOrigin constraintSampleOrigin(int i) const;
   /// Every sampled margin divided by its class scale (>= 0 when satisfied), and the target
   /// residuals (dx, height, pitch errors, landing pitch), and the take-off energy with |P|
   /// smoothed as sqrt(P^2 + 1 W^2) for gradient-based use. Returns false if u is invalid.
@@ -148,6 +155,7 @@ class JumpModel {
   std::array<double, 2> lim_hfe_{}, lim_kfe_{};
   Eigen::VectorXd lower_, upper_;
   int num_constraint_samples_ = 0;
+  int per_contact_sample_ = 0, per_flight_sample_ = 0, num_contact_samples_ = 0;
 };
 
 }  // namespace wj::planner

@@ -82,6 +82,10 @@ class JumpPlanner {
   Eigen::Matrix<double, model::kNumJoints, 1> standPosture() const;
 
  private:
+  /// The warm start handed to the DE: the given points and warm_start_cloud perturbations.
+  Eigen::MatrixXd warmCloud(const JumpModel& model, const Eigen::MatrixXd& warm,
+                            std::uint64_t seed) const;
+
   model::RobotModel robot_;
   PlannerSettings settings_;
 };

@@ -85,7 +85,11 @@ struct PlannerSettings {
   double landing_pitch_tolerance_rad = 0.25;  ///< |pitch at touchdown| for apex targets
 
   // --- solver
-  de::Settings de;      ///< Differential Evolution
+  de::Settings de;  ///< Differential Evolution
+  /// A warm start (from the cache) enters the first population with this many Gaussian
+  /// perturbations of it, sigma warm_start_spread of each variable's range (0 = the points only).
+  int warm_start_cloud = 12;
+  double warm_start_spread = 0.02;
   int de_restarts = 3;  ///< fresh-population restarts after an infeasible stagnation
   bool polish = true;   ///< run the Ipopt polish on the DE's best candidate
   int polish_max_iterations = 15;
@@ -99,6 +103,10 @@ struct PlannerSettings {
   /// a row have not lowered its energy by 0.1 % (0 = run to Ipopt's own convergence or
   /// max_iterations).
   int polish_stall_iterations = 3;
+  /// The polish keeps every sampled margin at least this far inside its bound, in units of the
+  /// class scale (5 Nm, 50 N, 0.2 rad, 5 rad/s, 0.05 m): a plan polished onto its bounds is
+  /// infeasible at the next velocity bin and after the smallest tracking error.
+  double polish_backoff = 0.05;
 
   PlannerSettings();
   /// Throws std::invalid_argument naming the field and its allowed range.
