@@ -177,6 +177,10 @@ void ServerConfig::validate() const {
           planner.polish_min_budget_s);
   require(planner.polish_reserve_s >= 0, "planner.polish_reserve_s", ">= 0",
           planner.polish_reserve_s);
+  require(
+      planner.output_dt_s == 0.0 || (planner.output_dt_s >= 1e-4 && planner.output_dt_s <= 0.002),
+      "planner.output_dt_s", "0 (the planner settings' own) or in [1e-4, 0.002] s",
+      planner.output_dt_s);
   require(executor.plan_workers >= 1 && executor.plan_workers <= 64, "executor.plan_workers",
           "in [1, 64]", executor.plan_workers);
   require(executor.plan_queue >= 0 && executor.plan_queue <= 100000, "executor.plan_queue",
@@ -312,6 +316,8 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
     r.read("max_evaluations_cap", c.planner.max_evaluations_cap);
     r.read("polish_min_budget_s", c.planner.polish_min_budget_s);
     r.read("polish_reserve_s", c.planner.polish_reserve_s);
+    // Optional, so that configurations written before it stay valid (0: the planner's own).
+    if (r.has("output_dt_s")) r.read("output_dt_s", c.planner.output_dt_s);
   });
   top.section("executor", [&](MapReader& r) {
     r.read("plan_workers", c.executor.plan_workers);
@@ -428,7 +434,8 @@ std::string ServerConfig::toYaml() const {
     << "  de_threads: " << planner.de_threads << "\n"
     << "  max_evaluations_cap: " << planner.max_evaluations_cap << "\n"
     << "  polish_min_budget_s: " << num(planner.polish_min_budget_s) << "\n"
-    << "  polish_reserve_s: " << num(planner.polish_reserve_s) << "\n";
+    << "  polish_reserve_s: " << num(planner.polish_reserve_s) << "\n"
+    << "  output_dt_s: " << num(planner.output_dt_s) << "\n";
   o << "executor:\n"
     << "  plan_workers: " << executor.plan_workers << "\n"
     << "  plan_queue: " << executor.plan_queue << "\n"

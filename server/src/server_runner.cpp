@@ -55,6 +55,10 @@ PlannerServer::PlannerServer(const ServerConfig& config) : config_(config) {
       config_.planner.settings_file.empty()
           ? planner::PlannerSettings{}
           : planner::PlannerSettings::fromYaml(config_.planner.settings_file);
+  if (config_.planner.output_dt_s > 0.0) {
+    settings.output_dt_s = config_.planner.output_dt_s;
+    settings.validate();
+  }
   std::unique_ptr<PlanVerifier> verifier;
   if (config_.verification.enabled) {
     verifier = makeSimVerifier(robot, config_.verification);

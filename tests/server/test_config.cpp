@@ -46,6 +46,23 @@ TEST(ServerConfig, SampleFileIsValidAndNucLike) {
   EXPECT_EQ(c.planner.de_threads, 2);
   EXPECT_EQ(c.cache.max_memory_entries, 100000);
   EXPECT_DOUBLE_EQ(c.cache.v0_bin_m_s, 0.05);
+  // 500 Hz references: half the regeneration and the bytes of a hit (docs/service.md).
+  EXPECT_DOUBLE_EQ(c.planner.output_dt_s, 0.002);
+}
+
+TEST(ServerConfig, OutputSamplePeriodIsOptionalAndBounded) {
+  const std::string base = ServerConfig{}.toYaml();
+  // Left out (configurations written before it): the planner settings' own period.
+  const auto without =
+      ServerConfig::fromYamlString(replaceLine(base, "  output_dt_s:", ""), "<test>");
+  EXPECT_EQ(without.planner.output_dt_s, 0.0);
+  const auto with = ServerConfig::fromYamlString(
+      replaceLine(base, "  output_dt_s:", "  output_dt_s: 0.002"), "<test>");
+  EXPECT_DOUBLE_EQ(with.planner.output_dt_s, 0.002);
+  // Slower than the contract's 500 Hz is refused.
+  EXPECT_NE(errorOf(replaceLine(base, "  output_dt_s:", "  output_dt_s: 0.004"))
+                .find("planner.output_dt_s"),
+            std::string::npos);
 }
 
 TEST(ServerConfig, UnknownKeyIsAnErrorNamingIt) {

@@ -7,6 +7,7 @@
 #include <sqlite3.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <future>
@@ -123,6 +124,26 @@ TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
   EXPECT_EQ(s.latencies(0).count(), 1u);
   EXPECT_GT(s.latencies(0).p99_ms(), 0.0);
   EXPECT_GT(s.uptime_s(), 0.0);
+}
+
+TEST(Integration, OutputSamplePeriodComesFromTheConfiguration) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.planner.output_dt_s = 0.002;
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  const auto miss = plan(c, standingRequest(0.5));
+  ASSERT_TRUE(miss.ok()) << miss.status.error_message();
+  const auto hit = plan(c, standingRequest(0.51));
+  ASSERT_TRUE(hit.ok()) << hit.status.error_message();
+  EXPECT_EQ(hit.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  for (const auto* r : {&miss.response, &hit.response}) {
+    expectWholePlan(*r);
+    const auto& p = r->plan();
+    EXPECT_DOUBLE_EQ(p.joints().sample_period_s(), 0.002);
+    EXPECT_EQ(p.joints().num_samples(),
+              static_cast<std::uint32_t>(std::ceil(p.phase_times().t3_s() / 0.002 - 1e-9)) + 1);
+  }
 }
 
 TEST(Integration, InvalidRequestsNameTheFieldAndItsRange) {

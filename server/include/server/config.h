@@ -29,6 +29,10 @@ struct PlannerConfig {
   std::int64_t max_evaluations_cap = 200000;  ///< upper bound applied to budget.max_evaluations
   double polish_min_budget_s = 0.5;  ///< run the Ipopt polish only if the DE got at least this
   double polish_reserve_s = 0.1;     ///< time kept back for the polish when it runs [s]
+  /// Sample period of the returned joint and CoM trajectories [s], in [1e-4, 0.002] (500 Hz or
+  /// faster, the contract's bound); replaces the planner settings' sampling.output_dt_s. 0 (or
+  /// the key left out) keeps the planner settings' own (1 ms by default).
+  double output_dt_s = 0.0;
 };
 
 /// The worker pools. Planning never runs on gRPC's threads.
