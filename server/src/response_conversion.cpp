@@ -91,13 +91,16 @@ void toProto(const planner::JumpPlan& plan, const model::RobotModel& robot, v1::
   auto* joints = out->mutable_joints();
   joints->set_sample_period_s(plan.dt);
   joints->set_num_samples(static_cast<std::uint32_t>(n));
+  joints->mutable_joint_names()->Reserve(model::kNumJoints);
   for (const auto& j : robot.joints()) joints->add_joint_names(j.name);
+  // Sample-major on the wire, column-major in Eigen: one transposing copy per matrix, written
+  // straight into the response's array (no zero fill before, no intermediate).
+  using SampleMajor = Eigen::Matrix<double, Eigen::Dynamic, model::kNumJoints, Eigen::RowMajor>;
   const auto fill = [n](const Eigen::MatrixXd& m, google::protobuf::RepeatedField<double>* f) {
     if (m.rows() != n || m.cols() != model::kNumJoints) return;
-    f->Resize(n * model::kNumJoints, 0.0);
-    double* dst = f->mutable_data();
-    for (int k = 0; k < n; ++k)
-      for (int j = 0; j < model::kNumJoints; ++j) *dst++ = m(k, j);
+    f->Reserve(n * model::kNumJoints);
+    f->AddNAlreadyReserved(n * model::kNumJoints);
+    Eigen::Map<SampleMajor>(f->mutable_data(), n, model::kNumJoints) = m;
   };
   fill(plan.q, joints->mutable_positions_rad());
   fill(plan.qd, joints->mutable_velocities_rad_s());

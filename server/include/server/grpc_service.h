@@ -4,6 +4,9 @@
 /// the work to the PlanningCore and returns its reactor at once; the answer is converted and the
 /// call finished from the core's worker thread. Nothing here blocks or plans.
 
+#include <google/protobuf/arena.h>
+#include <grpcpp/support/message_allocator.h>
+
 #include <atomic>
 #include <chrono>
 
@@ -17,6 +20,18 @@ namespace wj::server {
 /// time_point::max() when the client set none): default_s without one, at most max_s.
 Clock::time_point toCoreDeadline(std::chrono::system_clock::time_point deadline,
                                  const DeadlineConfig& config);
+
+/// PlanJump's request and response on one protobuf arena per call: the dense response (a few
+/// hundred CentroidalSample messages and three N x 16 arrays) is built with a handful of block
+/// allocations instead of one malloc per sample, and freed at once with its arena.
+class PlanJumpArenaAllocator final
+    : public grpc::MessageAllocator<wheeljump::planner::v1::PlanJumpRequest,
+                                    wheeljump::planner::v1::PlanJumpResponse> {
+ public:
+  grpc::MessageHolder<wheeljump::planner::v1::PlanJumpRequest,
+                      wheeljump::planner::v1::PlanJumpResponse>*
+  AllocateMessages() override;
+};
 
 class JumpPlannerService final : public wheeljump::planner::v1::JumpPlanner::CallbackService {
  public:
@@ -45,6 +60,7 @@ class JumpPlannerService final : public wheeljump::planner::v1::JumpPlanner::Cal
   PlanningCore& core_;
   ServerConfig config_;
   std::atomic<int> inflight_{0};
+  PlanJumpArenaAllocator allocator_;
 };
 
 }  // namespace wj::server
