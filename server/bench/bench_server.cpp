@@ -11,6 +11,7 @@
 //   4. resident memory of a server holding 100,000 cached entries (and of an empty one).
 // Every server is a real planner_server process started here with its own configuration.
 #include <fcntl.h>
+#include <google/protobuf/arena.h>
 #include <grpcpp/grpcpp.h>
 #include <malloc.h>
 #include <signal.h>
@@ -436,17 +437,20 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
     });
     wj::server::PlanAnswer a;
     std::optional<planner::JumpModel> model;
-    time("model_evaluate", [&] {
-      model.emplace(robot, settings, r.task, r.initial);
-      model->evaluate(u, a.evaluation);
-    });
+    time("model", [&] { model.emplace(robot, settings, r.task, r.initial); });
+    time("evaluate", [&] { model->evaluate(u, a.evaluation); });
     time("build_plan", [&] { a.plan = model->buildPlan(u); });
     time("describe", [&] { wj::server::describeEvaluation(a.evaluation, a.binding, a.summary); });
-    auto response = std::make_unique<v1::PlanJumpResponse>();
-    time("to_proto", [&] { wj::server::toProto(a, robot, r.request_id, response.get()); });
+    // On an arena with the server's block sizes (grpc_service.cpp), as the server builds it.
+    google::protobuf::ArenaOptions arena_options;
+    arena_options.start_block_size = 4 * 1024;
+    arena_options.max_block_size = 64 * 1024;
+    std::optional<google::protobuf::Arena> arena(std::in_place, arena_options);
+    auto* response = google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(&*arena);
+    time("to_proto", [&] { wj::server::toProto(a, robot, r.request_id, response); });
     std::string wire;
     time("serialize", [&] { response->SerializeToString(&wire); });
-    time("free_response", [&] { response.reset(); });
+    time("free_response", [&] { arena.reset(); });
     time("free_plan", [&] { a = wj::server::PlanAnswer{}; });
     time("client_parse", [&] { parsed.ParseFromString(wire); });
     bytes = static_cast<long>(wire.size());
