@@ -4,6 +4,8 @@
 # then the vertical jump. Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
 set -euo pipefail
+# DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
+export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}
 SEEDS=${2:-10}

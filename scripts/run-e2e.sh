@@ -5,6 +5,8 @@
 # measurement through emulated MIT-mode CAN frames) and the vertical scenario. Summaries on
 # stdout, telemetry and figures in out/. Usage: scripts/run-e2e.sh [build dir] [seed]
 set -euo pipefail
+# DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
+export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}
 SEED=${2:-1}

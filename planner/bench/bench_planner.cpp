@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <memory>
@@ -117,6 +118,9 @@ int main(int argc, char** argv) {
   const JumpPlanner planner(wj::model::RobotModel::loadDefault(), PlannerSettings{});
   json out;
   out["machine_threads"] = static_cast<int>(std::thread::hardware_concurrency());
+  // libgomp reads it at start-up: spinning (the default) or sleeping at the DE's barriers.
+  const char* wait_policy = std::getenv("OMP_WAIT_POLICY");
+  out["omp_wait_policy"] = wait_policy ? wait_policy : "unset (libgomp default: spin, then sleep)";
 
   // 1. Cold solves of the presets.
   for (const auto& name : part("cold") ? presetNames() : std::vector<std::string>{}) {

@@ -6,6 +6,8 @@
 # must stop before the wall. The test configuration gives the planner a longer deadline and the
 # wall more run-up room than the shipped one, because CI machines are slower and shared.
 set -euo pipefail
+# DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
+export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
 BIN=$1
 SRC=$2
 CASE=$3
