@@ -25,6 +25,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <future>
@@ -88,6 +89,8 @@ class Server {
       const int fd = ::open(log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       ::dup2(fd, 1);
       ::dup2(fd, 2);
+      // As deployed (docs/planner.md, "Threads"): DE threads sleep at their barriers.
+      ::setenv("OMP_WAIT_POLICY", "passive", 0);
       ::execl(WJ_PLANNER_SERVER_BIN, WJ_PLANNER_SERVER_BIN, "--config", config_path.c_str(),
               static_cast<char*>(nullptr));
       ::_exit(127);
