@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
@@ -151,7 +152,7 @@ int main(int argc, char** argv) {
   // 2. Warm start from a neighbouring run-up speed (what the cache does on a miss).
   if (part("warm")) {
     std::vector<double> warm_ms, cold_ms, warm_de_ms, warm_polish_ms, warm_evaluations;
-    int feasible = 0;
+    int feasible = 0, polish_improved = 0, target_met_exactly = 0;
     for (int s = 1; s <= runs; ++s) {
       const Scenario base = makePreset(planner, "forward_hw", 3.0);
       PlanOptions o;
@@ -167,12 +168,16 @@ int main(int argc, char** argv) {
       warm_evaluations.push_back(static_cast<double>(r1.de.evaluations));
       cold_ms.push_back(r0.total_ms);
       feasible += r1.evaluation.feasible;
+      polish_improved += r1.polish == PolishOutcome::Improved;
+      target_met_exactly += std::abs(r1.evaluation.err_dx) < 1e-5;
     }
     out["warm_start"] = {{"task", "forward_hw 3.00 -> 3.05 m/s"},
                          {"median_ms", median(warm_ms)},
                          {"median_de_ms", median(warm_de_ms)},
                          {"median_polish_ms", median(warm_polish_ms)},
                          {"median_evaluations", median(warm_evaluations)},
+                         {"polish_improved", polish_improved},
+                         {"dx_within_1e-5_m", target_met_exactly},
                          {"cold_median_ms", median(cold_ms)},
                          {"feasible", feasible},
                          {"runs", runs}};
@@ -220,6 +225,7 @@ int main(int argc, char** argv) {
         PlannerSettings no_early_stop = planner.settings();
         no_early_stop.de.target_cost = -std::numeric_limits<double>::infinity();
         no_early_stop.de.stagnation_generations = 0;
+        no_early_stop.de_restarts = 0;  // one attempt over the whole budget, as pagmo's
         const JumpPlanner full(planner.robot(), no_early_stop);
         const PlannerResult r = full.plan(sc.task, sc.initial, o);
         ours_feasible += r.de.first_feasible_evaluations >= 0;

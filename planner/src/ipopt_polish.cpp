@@ -300,7 +300,7 @@ class PolishNlp final : public Ipopt::TNLP {
 }  // namespace
 
 PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                              int* iterations) {
+                              int* iterations, int max_iterations) {
   u = u0;
   Ipopt::SmartPtr<PolishNlp> nlp = new PolishNlp(model, u0);
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
@@ -310,7 +310,8 @@ PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0,
   // oracle costs several extra MUMPS solves per iteration, which dominate on a problem this
   // small (docs/planner.md, "Polish").
   app->Options()->SetStringValue("mu_strategy", "monotone");
-  app->Options()->SetIntegerValue("max_iter", model.settings().polish_max_iterations);
+  app->Options()->SetIntegerValue(
+      "max_iter", max_iterations > 0 ? max_iterations : model.settings().polish_max_iterations);
   app->Options()->SetNumericValue("tol", model.settings().polish_tolerance);
   app->Options()->SetNumericValue("constr_viol_tol", kConstraintTolerance);
   app->Options()->SetNumericValue("bound_push", 1e-6);

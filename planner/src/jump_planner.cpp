@@ -234,7 +234,11 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   if (do_polish) {
     t0 = Clock::now();
     Eigen::VectorXd u_pol;
-    r.polish = polishWithIpopt(model, r.u, u_pol, &r.polish_iterations);
+    // A warm start begins next to a polished neighbour: a few iterations meet the target and
+    // the back-off there; the energy it would still gain is small (docs/planner.md).
+    const int max_iterations =
+        options.warm_start.cols() > 0 ? settings_.polish_warm_max_iterations : 0;
+    r.polish = polishWithIpopt(model, r.u, u_pol, &r.polish_iterations, max_iterations);
     if (r.polish != PolishOutcome::Failed) {
       Evaluation ev;
       model.evaluate(u_pol, ev);

@@ -144,6 +144,8 @@ void PlannerSettings::validate() const {
         landing_pitch_tolerance_rad);
   check(de_restarts >= 0 && de_restarts <= 100, "de.restarts", "in [0, 100]", de_restarts);
   check(polish_max_iterations >= 0, "polish.max_iterations", ">= 0", polish_max_iterations);
+  check(polish_warm_max_iterations >= 0, "polish.warm_max_iterations", ">= 0 (0 = as cold)",
+        polish_warm_max_iterations);
   check(polish_tolerance > 0, "polish.tolerance", "> 0", polish_tolerance);
   check(polish_retries >= 0 && polish_retries <= 16, "polish.retries", "in [0, 16]",
         polish_retries);
@@ -323,6 +325,7 @@ PlannerSettings parse(const YAML::Node& root) {
          readSection(n, "polish",
                      {{"enabled", [&](const YAML::Node& v) { s.polish = v.as<bool>(); }},
                       {"max_iterations", integer(s.polish_max_iterations)},
+                      {"warm_max_iterations", integer(s.polish_warm_max_iterations)},
                       {"tolerance", number(s.polish_tolerance)},
                       {"retries", integer(s.polish_retries)},
                       {"stall_iterations", integer(s.polish_stall_iterations)},

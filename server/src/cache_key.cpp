@@ -192,6 +192,7 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.putDouble(s.warm_start_spread);
   w.putBool(s.polish);
   w.put(s.polish_max_iterations);
+  w.put(s.polish_warm_max_iterations);
   w.putDouble(s.polish_tolerance);
   w.put(s.polish_retries);
   w.put(s.polish_stall_iterations);

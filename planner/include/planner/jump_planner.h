@@ -98,8 +98,9 @@ std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev);
 std::string summarizeEvaluation(const Evaluation& ev, const std::vector<ConstraintClass>& binding);
 
 /// Ipopt polish of candidate u0 on `model`: minimises the take-off energy subject to every
-/// sampled constraint (>= 0) and the target errors (= 0). Returns the polished point in `u`.
+/// sampled constraint (>= polish.backoff) and the target errors (= 0), in at most
+/// `max_iterations` (0: polish.max_iterations). Returns the polished point in `u`.
 PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                              int* iterations);
+                              int* iterations, int max_iterations = 0);
 
 }  // namespace wj::planner

@@ -93,6 +93,8 @@ struct PlannerSettings {
   int de_restarts = 3;  ///< fresh-population restarts after an infeasible stagnation
   bool polish = true;   ///< run the Ipopt polish on the DE's best candidate
   int polish_max_iterations = 15;
+  /// The same for a warm-started solve (it begins next to a polished neighbour), 0 = as cold.
+  int polish_warm_max_iterations = 4;
   double polish_tolerance = 1e-6;
   /// When the polished best is still infeasible: polish the best of each other DE attempt
   /// (restart), lowest cost first, up to this many, and keep the first that is feasible.
