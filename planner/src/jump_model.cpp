@@ -2,6 +2,7 @@
 
 #include <Eigen/LU>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 
@@ -11,6 +12,9 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kInvalidCost = 1e16;
+// 10^n, exact, for the penalty's 10^(n+3) and 10^n with priorities n <= 10.
+constexpr std::array<double, 14> kPow10 = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,
+                                           1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13};
 // Fixed-point steps for the posture-dependent CoM offset per sample, warm-started from the
 // previous sample (the contraction factor is the legs' mass fraction, ~0.35), plus a final pass.
 constexpr int kCoMIterations = 1;
@@ -740,6 +744,15 @@ struct JumpModelAccess {
   template <class Sink>
   static void sweep(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev,
                     bool smooth_energy = false) {
+    sweep(M, S, sink, ev, smooth_energy, [] { return false; });
+  }
+
+  // The same, asking `stop()` every kCheckEvery contact samples and after the flight whether to
+  // give up; returns false if it stopped early.
+  static constexpr int kCheckEvery = 8;
+  template <class Sink, class Stop>
+  static bool sweep(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev,
+                    bool smooth_energy, Stop&& stop) {
     const auto& st = M.settings_;
     double energy = 0.0, prev_power = 0.0, prev_t = 0.0;
     Sample smp;
@@ -777,8 +790,19 @@ struct JumpModelAccess {
         if (t > prev_t) energy += 0.5 * (power + prev_power) * (t - prev_t);
         prev_power = power;
         prev_t = t;
+        if (k % kCheckEvery == kCheckEvery - 1 && stop()) return false;
       }
     }
+    if (ev) ev->energy_j = energy;
+    // (Sweeping the flight first cuts off as many trials: measured within 3 % either way.)
+    return sweepFlight(M, S, sink, stop);
+  }
+
+  // The flight part of sweep(): body and wheels against the ground and the obstacle, and the
+  // landing beyond the obstacle.
+  template <class Sink, class Stop>
+  static bool sweepFlight(const JumpModel& M, const Solved& S, Sink& sink, Stop&& stop) {
+    const auto& st = M.settings_;
     // Flight: the postures and CoM offsets tabulated with the attitude (same instants).
     for (int k = 1; k <= S.n_flight; ++k) {
       const double t = S.t2 + S.Tf * k / S.n_flight;
@@ -786,6 +810,7 @@ struct JumpModelAccess {
       const std::array<Eigen::Vector2d, 2> q = {S.flight_q[0][k], S.flight_q[1][k]};
       emitBody(M, t, s, S.flight_c[k], nullptr, &q, sink);
     }
+    if (stop()) return false;
     if (M.task_.obstacle) {
       // Clearing the obstacle means landing beyond it: the rear wheel touches down past its
       // far face (otherwise stopping short of the wall would count as clearing it).
@@ -796,7 +821,7 @@ struct JumpModelAccess {
       sink(ConstraintClass::ObstacleClearance,
            axle.x() - M.wheel_radius_ - M.task_.obstacle->x_max - st.obstacle_margin_m, S.t3, -1);
     }
-    if (ev) ev->energy_j = energy;
+    return true;
   }
 
   static void targetErrors(const JumpModel& M, const Solved& S, Eigen::Vector4d& e,
@@ -1057,7 +1082,8 @@ int JumpModel::classPriority(ConstraintClass c) {
   return 1;
 }
 
-void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation& ev) const {
+void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation& ev,
+                         double cutoff) const {
   ev = Evaluation{};
   Solved S;
   if (!JumpModelAccess::solve(*this, u, S)) {
@@ -1066,33 +1092,10 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
     return;
   }
   ev.valid = true;
-  auto sink = [&ev](ConstraintClass c, double margin, double t, int loc) {
-    ClassMargin& m = ev.margins[static_cast<int>(c)];
-    if (margin < m.worst) {
-      m.worst = margin;
-      m.t = t;
-      m.location = loc;
-    }
-  };
-  JumpModelAccess::sweep(*this, S, sink, &ev);
-  ev.penalty = 0.0;
-  ev.constraints_ok = true;
-  for (int i = 0; i < kNumConstraintClasses; ++i) {
-    const auto c = static_cast<ConstraintClass>(i);
-    const double worst = ev.margins[i].worst;
-    if (worst < 0.0) {
-      ev.constraints_ok = false;
-      const int n = classPriority(c);
-      ev.penalty += settings_.class_weight[i] *
-                    (std::pow(10.0, n + 3) + std::pow(10.0, n) * (-worst / classScale(c)));
-    }
-  }
+  // Target errors first: they need only the solved trajectory, and with the energy and the
+  // penalty >= 0 they bound the cost from below.
   Eigen::Vector4d e;
   JumpModelAccess::targetErrors(*this, S, e, ev.predicted);
-  ev.predicted.min_obstacle_clearance =
-      task_.obstacle ? ev.margins[static_cast<int>(ConstraintClass::ObstacleClearance)].worst +
-                           settings_.obstacle_margin_m
-                     : kInf;
   ev.err_dx = e[0];
   ev.err_height = e[1];
   ev.err_pitch = e[2];
@@ -1106,6 +1109,47 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
   ev.target_ok = std::abs(e[0]) <= settings_.tolerance_dx_m &&
                  std::abs(e[1]) <= settings_.tolerance_height_m &&
                  std::abs(e[2]) <= settings_.tolerance_pitch_rad && landing_excess == 0.0;
+  // The penalty of the margins so far; margins only fall as samples come in, so it only grows.
+  auto penalty = [&ev, this] {
+    double p = 0.0;
+    for (int i = 0; i < kNumConstraintClasses; ++i) {
+      const double worst = ev.margins[i].worst;
+      if (worst < 0.0) {
+        const auto c = static_cast<ConstraintClass>(i);
+        const int n = classPriority(c);
+        p += settings_.class_weight[i] * (kPow10[n + 3] + kPow10[n] * (-worst / classScale(c)));
+      }
+    }
+    return p;
+  };
+  auto cut = [&ev, cutoff](double lower_bound) {
+    if (!(lower_bound > cutoff)) return false;
+    ev.cut_off = true;
+    ev.cost = lower_bound;
+    ev.constraints_ok = false;
+    ev.feasible = false;
+    return true;
+  };
+  if (cut(ev.target_cost)) return;
+  auto sink = [&ev](ConstraintClass c, double margin, double t, int loc) {
+    ClassMargin& m = ev.margins[static_cast<int>(c)];
+    if (margin < m.worst) {
+      m.worst = margin;
+      m.t = t;
+      m.location = loc;
+    }
+  };
+  const bool bounded = cutoff < std::numeric_limits<double>::infinity();
+  const bool complete = JumpModelAccess::sweep(
+      *this, S, sink, &ev, false, [&] { return bounded && cut(penalty() + ev.target_cost); });
+  if (!complete) return;
+  ev.penalty = penalty();
+  ev.constraints_ok = true;
+  for (const ClassMargin& m : ev.margins) ev.constraints_ok = ev.constraints_ok && m.worst >= 0.0;
+  ev.predicted.min_obstacle_clearance =
+      task_.obstacle ? ev.margins[static_cast<int>(ConstraintClass::ObstacleClearance)].worst +
+                           settings_.obstacle_margin_m
+                     : kInf;
   ev.feasible = ev.constraints_ok && ev.target_ok;
   ev.cost = ev.penalty + ev.target_cost + settings_.energy_weight * ev.energy_j;
 }

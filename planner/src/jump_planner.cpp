@@ -36,6 +36,12 @@ class JumpProblem final : public de::Problem {
     model_.evaluate(x, ev);
     return {ev.cost, ev.feasible};
   }
+  de::Fitness evaluateBounded(const Eigen::Ref<const Eigen::VectorXd>& x, de::Workspace& ws,
+                              double bound) const override {
+    auto& ev = static_cast<Work&>(ws).ev;
+    model_.evaluate(x, ev, bound);
+    return {ev.cost, ev.feasible};
+  }
 
  private:
   const JumpModel& model_;

@@ -314,6 +314,8 @@ PlannerSettings parse(const YAML::Node& root) {
               {"stagnation_generations", integer(d.stagnation_generations)},
               {"stagnation_tolerance", number(d.stagnation_tolerance)},
               {"target_cost", number(d.target_cost)},
+              {"bounded_trials",
+               [&](const YAML::Node& v) { d.bounded_trials = v.as<bool>(); }},
               {"restarts", integer(s.de_restarts)},
               {"warm_start_cloud", integer(s.warm_start_cloud)},
               {"warm_start_spread", number(s.warm_start_spread)},

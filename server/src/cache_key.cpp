@@ -186,7 +186,7 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.putDouble(d.stagnation_tolerance);
   w.put(d.seed);
   w.put(d.shade_memory_size);
-  // d.threads and d.keep_log do not change the result (same seed, same plan at any count).
+  // d.threads, d.keep_log and d.bounded_trials do not change the result (same seed, same plan).
   w.put(s.de_restarts);
   w.put(s.warm_start_cloud);
   w.putDouble(s.warm_start_spread);

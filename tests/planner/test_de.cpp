@@ -376,6 +376,48 @@ INSTANTIATE_TEST_SUITE_P(
              std::string(toString(case_info.param.strategy));
     });
 
+/// Rosenbrock whose bounded evaluation adds the terms one by one and stops as soon as the sum
+/// exceeds the bound (every term is >= 0, so the partial sum is a lower bound). Counts the terms.
+class BoundedRosenbrock : public Problem {
+ public:
+  int dimension() const override { return 6; }
+  Eigen::VectorXd lowerBounds() const override { return Eigen::VectorXd::Constant(6, -5.0); }
+  Eigen::VectorXd upperBounds() const override { return Eigen::VectorXd::Constant(6, 10.0); }
+  Fitness evaluate(const Eigen::Ref<const Eigen::VectorXd>& x, Workspace& ws) const override {
+    return evaluateBounded(x, ws, kInf);
+  }
+  Fitness evaluateBounded(const Eigen::Ref<const Eigen::VectorXd>& x, Workspace&,
+                          double bound) const override {
+    double sum = 0.0;
+    for (Eigen::Index i = 0; i + 1 < x.size(); ++i) {
+      const double a = x(i + 1) - x(i) * x(i);
+      const double b = 1.0 - x(i);
+      sum += 100.0 * a * a + b * b;
+      terms_.fetch_add(1, std::memory_order_relaxed);
+      if (sum > bound) return {sum, false};
+    }
+    return {sum, true};
+  }
+  mutable std::atomic<long> terms_{0};
+};
+
+TEST(de_Evaluation, BoundedTrialsMakeTheSameRunWithLessWork) {
+  Settings s = quickSettings();
+  s.max_generations = 300;
+  s.threads = 2;
+  s.bounded_trials = false;
+  const BoundedRosenbrock full_problem;
+  const Result full = Solver(s).solve(full_problem);
+  s.bounded_trials = true;
+  const BoundedRosenbrock bounded_problem;
+  const Result bounded = Solver(s).solve(bounded_problem);
+  expectSameRun(full, bounded);
+  EXPECT_EQ(full.best_x, bounded.best_x);
+  EXPECT_EQ(full.evaluations, bounded.evaluations);
+  // Trials that lose to their parent stop early: fewer terms computed for the same run.
+  EXPECT_LT(bounded_problem.terms_.load(), full_problem.terms_.load() * 9 / 10);
+}
+
 TEST(de_Determinism, DifferentSeedsGiveDifferentRuns) {
   const FunctionProblem problem(5, -5.0, 10.0, rosenbrock);
   Settings s = quickSettings();

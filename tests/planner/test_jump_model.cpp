@@ -2,6 +2,8 @@
 // evaluators on hand-made cases, and the planner's determinism, polish and input checks.
 #include <gtest/gtest.h>
 
+#include <random>
+
 #include <cmath>
 #include <map>
 
@@ -327,6 +329,44 @@ TEST(JumpModel, PenaltyFollowsThePrioritizedForm) {
               1e-9 * ev.cost);
 }
 
+TEST(JumpModel, CutOffEvaluationBoundsTheFullCostFromBelow) {
+  // evaluate() with a cut-off either runs in full (the same numbers as without one) or stops
+  // with a cost above the cut-off and at most the full cost.
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "forward");
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  std::mt19937_64 rng(5);
+  int cut = 0, full = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    Eigen::VectorXd u(m.dimension());
+    for (int j = 0; j < m.dimension(); ++j)
+      u[j] = std::uniform_real_distribution<double>(m.lowerBounds()[j], m.upperBounds()[j])(rng);
+    Evaluation reference, bounded;
+    m.evaluate(u, reference);
+    EXPECT_FALSE(reference.cut_off);
+    if (!reference.valid) continue;
+    // Cut-offs from far below to above the cost, in log steps.
+    const double cutoff = reference.cost * std::pow(10.0, -3.0 + 3.5 * (trial % 8) / 7.0);
+    m.evaluate(u, bounded, cutoff);
+    if (bounded.cut_off) {
+      ++cut;
+      EXPECT_GT(bounded.cost, cutoff);
+      EXPECT_LE(bounded.cost, reference.cost);
+      EXPECT_FALSE(bounded.feasible);
+    } else {
+      ++full;
+      EXPECT_EQ(bounded.cost, reference.cost);
+      EXPECT_EQ(bounded.feasible, reference.feasible);
+      EXPECT_EQ(bounded.energy_j, reference.energy_j);
+    }
+    if (cutoff >= reference.cost) {
+      EXPECT_FALSE(bounded.cut_off) << "cut-off above the cost";
+    }
+  }
+  EXPECT_GT(cut, 20);
+  EXPECT_GT(full, 20);
+}
+
 TEST(JumpModel, PlanarCompositeCoMMatchesTheUrdfTree) {
   const JumpPlanner planner = makePlanner();
   const Scenario sc = makePreset(planner, "vertical");
@@ -432,6 +472,26 @@ TEST(JumpPlanner, SameSeedSamePlanAtAnyThreadCount) {
   o.seed = 8;
   const PlannerResult c = planner.plan(sc.task, sc.initial, o);
   EXPECT_NE(a.u, c.u);
+}
+
+TEST(JumpPlanner, CutOffTrialsGiveTheSamePlan) {
+  PlannerSettings s;
+  s.de.bounded_trials = false;
+  const JumpPlanner full_planner = makePlanner(s);
+  s.de.bounded_trials = true;
+  const JumpPlanner bounded_planner = makePlanner(s);
+  const Scenario sc = makePreset(full_planner, "forward");
+  PlanOptions o;
+  o.seed = 3;
+  o.max_evaluations = 2000;
+  o.polish = false;
+  o.threads = 2;
+  const PlannerResult a = full_planner.plan(sc.task, sc.initial, o);
+  const PlannerResult b = bounded_planner.plan(sc.task, sc.initial, o);
+  ASSERT_EQ(a.de.log.size(), b.de.log.size());
+  for (std::size_t i = 0; i < a.de.log.size(); ++i)
+    EXPECT_EQ(a.de.log[i].best_cost, b.de.log[i].best_cost) << "generation " << i;
+  EXPECT_EQ(a.u, b.u);
 }
 
 TEST(JumpPlanner, PolishNeverWorsensTheCost) {

@@ -50,6 +50,9 @@ inline constexpr int kNumJointKinds = 4;
 /// Everything evaluate() computes about one candidate. Owned by the caller (one per thread).
 struct Evaluation {
   bool valid = false;  ///< the linear solves succeeded and the flight reaches the ground
+  /// evaluate() stopped at its cut-off: `cost` is only a lower bound (> the cut-off), and the
+  /// margins, target errors, energy and maxima are partial.
+  bool cut_off = false;
   double cost = std::numeric_limits<double>::infinity();
   double penalty = 0.0;      ///< prioritized constraint penalty (paper Eq. 10)
   double target_cost = 0.0;  ///< sum of squared target errors over their tolerances
@@ -76,8 +79,12 @@ class JumpModel {
   const Eigen::VectorXd& lowerBounds() const { return lower_; }
   const Eigen::VectorXd& upperBounds() const { return upper_; }
 
-  /// Evaluates candidate u into `ev`. Allocation-free; safe to call concurrently.
-  void evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation& ev) const;
+  /// Evaluates candidate u into `ev`. Allocation-free; safe to call concurrently. With a
+  /// finite `cutoff` it stops once the cost is known to exceed it (target errors first, then the
+  /// constraint samples in time order, checked every few samples): ev.cut_off is then set and
+  /// ev.cost is a lower bound > cutoff. The DE passes a trial's parent cost.
+  void evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation& ev,
+                double cutoff = std::numeric_limits<double>::infinity()) const;
 
   /// Number of individual constraint samples (fixed for this model), for the polish.
   int numConstraintSamples() const { return num_constraint_samples_; }

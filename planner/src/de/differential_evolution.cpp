@@ -135,14 +135,18 @@ class Run {
 
   /// Evaluates columns [0, count) of `x` into `out` in parallel, then counts them and notes the
   /// first feasible one (by its index in the batch, so deterministically).
-  void evaluate(const Eigen::MatrixXd& x, int count, std::vector<Fitness>& out) {
+  /// With `bounds`, candidate i is evaluated with cut-off bounds[i].cost (evaluateBounded).
+  void evaluate(const Eigen::MatrixXd& x, int count, std::vector<Fitness>& out,
+                const std::vector<Fitness>* bounds = nullptr) {
     const int threads = static_cast<int>(workspaces_.size());
     const int chunk = std::max(1, count / (4 * threads));
 #pragma omp parallel for num_threads(threads) schedule(dynamic, chunk) if (threads > 1 && count > 1)
     for (int i = 0; i < count; ++i) {
       Workspace& workspace = *workspaces_[static_cast<std::size_t>(omp_get_thread_num())];
       try {
-        Fitness f = problem_.evaluate(x.col(i), workspace);
+        Fitness f = bounds ? problem_.evaluateBounded(
+                                 x.col(i), workspace, (*bounds)[static_cast<std::size_t>(i)].cost)
+                           : problem_.evaluate(x.col(i), workspace);
         if (std::isnan(f.cost)) f.cost = std::numeric_limits<double>::infinity();
         out[static_cast<std::size_t>(i)] = f;
       } catch (...) {  // an exception must not escape an OpenMP region; rethrown below
@@ -234,9 +238,10 @@ class Run {
       mutate_(input, i, p.F, rng_, mutant_);
       crossoverBinomial(population_.col(i), mutant_, p.CR, box_, rng_, trials_.col(i));
     }
-    evaluate(trials_, count, trial_fitness_);
+    evaluate(trials_, count, trial_fitness_, settings_.bounded_trials ? &fitness_ : nullptr);
 
     // Selection (Storn and Price 1997): the trial replaces its parent if it is better or equal.
+    // A trial cut off by its parent's cost reports a cost above it, so it loses as it would have.
     for (int i = 0; i < count; ++i) {
       const auto s = static_cast<std::size_t>(i);
       const Fitness& trial = trial_fitness_[s];
