@@ -211,7 +211,10 @@ struct Sample {
 };
 
 struct JumpModelAccess {
-  static bool solve(const JumpModel& M, const Eigen::Ref<const Eigen::VectorXd>& u, Solved& S) {
+  // Solves the take-off for candidate u and, with `flight`, the flight attitude (otherwise
+  // solveFlight() completes S later). Returns false if u has no valid trajectory.
+  static bool solve(const JumpModel& M, const Eigen::Ref<const Eigen::VectorXd>& u, Solved& S,
+                    bool flight = true) {
     const auto& st = M.settings_;
     const PlanarState& s0 = M.initial_;
     const double m = M.mass_, g = st.gravity, I = M.inertia_;
@@ -321,9 +324,30 @@ struct JumpModelAccess {
     S.c_to = smp.c;
     S.qd_to = {smp.hind.qd, smp.front.qd};
     S.wheel_to = {smp.hind.wheel_rate, smp.front.wheel_rate};
-    integrateFlightAttitude(M, S);
-    S.touchdown = stateAt(M, S, S.t3, g);
+    if (flight) solveFlight(M, S);
     return true;
+  }
+
+  // The flight attitude and the touchdown state of a solved take-off.
+  static void solveFlight(const JumpModel& M, Solved& S) {
+    integrateFlightAttitude(M, S);
+    S.touchdown = stateAt(M, S, S.t3, M.settings_.gravity);
+  }
+
+  // The target's position terms of the target cost (dx and height over their tolerances,
+  // squared): the ballistic CoM gives them before the flight attitude is known. The same
+  // arithmetic as targetErrors() and the cost, so it never exceeds the full target cost.
+  static double targetPositionCost(const JumpModel& M, const Solved& S) {
+    const auto& tgt = M.task_.target;
+    const auto& st = M.settings_;
+    const double g = st.gravity;
+    const bool apex = tgt.event == TargetEvent::Apex;
+    const double t_apex = std::max(S.takeoff.vz / g, 0.0);
+    const PlanarState at =
+        ballisticG(S.takeoff, apex ? (S.t2 + t_apex) - S.t2 : S.t3 - S.t2, g);
+    const double e0 = at.x - M.initial_.x - tgt.dx;
+    const double e1 = apex ? at.z - tgt.height : 0.0;
+    return std::pow(e0 / st.tolerance_dx_m, 2) + std::pow(e1 / st.tolerance_height_m, 2);
   }
 
   // Pitch inertia of the whole robot about its CoM, and the angular momentum of the legs'
@@ -753,6 +777,13 @@ struct JumpModelAccess {
   template <class Sink, class Stop>
   static bool sweep(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev,
                     bool smooth_energy, Stop&& stop) {
+    return sweepContact(M, S, sink, ev, smooth_energy, stop) && sweepFlight(M, S, sink, stop);
+  }
+
+  // The take-off part of sweep(): every contact sample, the energy and the joint maxima.
+  template <class Sink, class Stop>
+  static bool sweepContact(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev,
+                           bool smooth_energy, Stop&& stop) {
     const auto& st = M.settings_;
     double energy = 0.0, prev_power = 0.0, prev_t = 0.0;
     Sample smp;
@@ -790,12 +821,14 @@ struct JumpModelAccess {
         if (t > prev_t) energy += 0.5 * (power + prev_power) * (t - prev_t);
         prev_power = power;
         prev_t = t;
-        if (k % kCheckEvery == kCheckEvery - 1 && stop()) return false;
+        if (k % kCheckEvery == kCheckEvery - 1) {
+          if (ev) ev->energy_j = energy;  // so far: a lower bound of the whole
+          if (stop()) return false;
+        }
       }
     }
     if (ev) ev->energy_j = energy;
-    // (Sweeping the flight first cuts off as many trials: measured within 3 % either way.)
-    return sweepFlight(M, S, sink, stop);
+    return true;
   }
 
   // The flight part of sweep(): body and wheels against the ground and the obstacle, and the
@@ -1086,14 +1119,55 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
                          double cutoff) const {
   ev = Evaluation{};
   Solved S;
-  if (!JumpModelAccess::solve(*this, u, S)) {
+  // The cost is built up cheapest bound first, and with a finite cut-off the evaluation stops
+  // once what is known already exceeds it: every term (penalty, target, energy) is >= 0 and
+  // only grows as samples come in. The order changes no value: the same numbers either way.
+  if (!JumpModelAccess::solve(*this, u, S, /*flight=*/false)) {
     ev.valid = false;
     ev.cost = kInvalidCost;
     return;
   }
   ev.valid = true;
-  // Target errors first: they need only the solved trajectory, and with the energy and the
-  // penalty >= 0 they bound the cost from below.
+  const bool bounded = cutoff < std::numeric_limits<double>::infinity();
+  // The penalty of the margins so far.
+  auto penalty = [&ev, this] {
+    double p = 0.0;
+    for (int i = 0; i < kNumConstraintClasses; ++i) {
+      const double worst = ev.margins[i].worst;
+      if (worst < 0.0) {
+        const auto c = static_cast<ConstraintClass>(i);
+        const int n = classPriority(c);
+        p += settings_.class_weight[i] * (kPow10[n + 3] + kPow10[n] * (-worst / classScale(c)));
+      }
+    }
+    return p;
+  };
+  double target_bound = 0.0;
+  auto cut = [&] {
+    if (!bounded) return false;
+    const double lower_bound = penalty() + target_bound + settings_.energy_weight * ev.energy_j;
+    if (!(lower_bound > cutoff)) return false;
+    ev.cut_off = true;
+    ev.cost = lower_bound;
+    ev.constraints_ok = false;
+    ev.target_ok = false;
+    ev.feasible = false;
+    return true;
+  };
+  auto sink = [&ev](ConstraintClass c, double margin, double t, int loc) {
+    ClassMargin& m = ev.margins[static_cast<int>(c)];
+    if (margin < m.worst) {
+      m.worst = margin;
+      m.t = t;
+      m.location = loc;
+    }
+  };
+  // 1. The target's position from the ballistic CoM; 2. the take-off samples.
+  if (bounded) target_bound = JumpModelAccess::targetPositionCost(*this, S);
+  if (cut()) return;
+  if (!JumpModelAccess::sweepContact(*this, S, sink, &ev, false, cut)) return;
+  // 3. The flight attitude and the whole target error.
+  JumpModelAccess::solveFlight(*this, S);
   Eigen::Vector4d e;
   JumpModelAccess::targetErrors(*this, S, e, ev.predicted);
   ev.err_dx = e[0];
@@ -1109,40 +1183,10 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
   ev.target_ok = std::abs(e[0]) <= settings_.tolerance_dx_m &&
                  std::abs(e[1]) <= settings_.tolerance_height_m &&
                  std::abs(e[2]) <= settings_.tolerance_pitch_rad && landing_excess == 0.0;
-  // The penalty of the margins so far; margins only fall as samples come in, so it only grows.
-  auto penalty = [&ev, this] {
-    double p = 0.0;
-    for (int i = 0; i < kNumConstraintClasses; ++i) {
-      const double worst = ev.margins[i].worst;
-      if (worst < 0.0) {
-        const auto c = static_cast<ConstraintClass>(i);
-        const int n = classPriority(c);
-        p += settings_.class_weight[i] * (kPow10[n + 3] + kPow10[n] * (-worst / classScale(c)));
-      }
-    }
-    return p;
-  };
-  auto cut = [&ev, cutoff](double lower_bound) {
-    if (!(lower_bound > cutoff)) return false;
-    ev.cut_off = true;
-    ev.cost = lower_bound;
-    ev.constraints_ok = false;
-    ev.feasible = false;
-    return true;
-  };
-  if (cut(ev.target_cost)) return;
-  auto sink = [&ev](ConstraintClass c, double margin, double t, int loc) {
-    ClassMargin& m = ev.margins[static_cast<int>(c)];
-    if (margin < m.worst) {
-      m.worst = margin;
-      m.t = t;
-      m.location = loc;
-    }
-  };
-  const bool bounded = cutoff < std::numeric_limits<double>::infinity();
-  const bool complete = JumpModelAccess::sweep(
-      *this, S, sink, &ev, false, [&] { return bounded && cut(penalty() + ev.target_cost); });
-  if (!complete) return;
+  target_bound = ev.target_cost;
+  if (cut()) return;
+  // 4. The flight samples.
+  if (!JumpModelAccess::sweepFlight(*this, S, sink, cut)) return;
   ev.penalty = penalty();
   ev.constraints_ok = true;
   for (const ClassMargin& m : ev.margins) ev.constraints_ok = ev.constraints_ok && m.worst >= 0.0;
