@@ -771,9 +771,9 @@ struct JumpModelAccess {
     sweep(M, S, sink, ev, smooth_energy, [] { return false; });
   }
 
-  // The same, asking `stop()` every kCheckEvery contact samples and after the flight whether to
-  // give up; returns false if it stopped early.
-  static constexpr int kCheckEvery = 8;
+  // The same, asking `stop()` after every contact sample and after the flight whether to give
+  // up; returns false if it stopped early. (Asking every 8 samples instead: 5-7 % more
+  // instructions per solve.)
   template <class Sink, class Stop>
   static bool sweep(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev,
                     bool smooth_energy, Stop&& stop) {
@@ -821,10 +821,8 @@ struct JumpModelAccess {
         if (t > prev_t) energy += 0.5 * (power + prev_power) * (t - prev_t);
         prev_power = power;
         prev_t = t;
-        if (k % kCheckEvery == kCheckEvery - 1) {
-          if (ev) ev->energy_j = energy;  // so far: a lower bound of the whole
-          if (stop()) return false;
-        }
+        if (ev) ev->energy_j = energy;  // so far: a lower bound of the whole
+        if (stop()) return false;
       }
     }
     if (ev) ev->energy_j = energy;
