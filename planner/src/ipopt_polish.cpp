@@ -122,7 +122,7 @@ class PolishNlp final : public Ipopt::TNLP {
   }
   bool eval_grad_f(Ipopt::Index n, const Ipopt::Number* x, bool new_x,
                    Ipopt::Number* grad) override {
-    if (!update(n, x, new_x)) return false;
+    if (!update(n, x, new_x) || !derivatives(n)) return false;
     for (Ipopt::Index i = 0; i < n; ++i) grad[i] = grad_[i];
     return true;
   }
@@ -143,7 +143,7 @@ class PolishNlp final : public Ipopt::TNLP {
         }
       return true;
     }
-    if (!update(n, x, new_x)) return false;
+    if (!update(n, x, new_x) || !derivatives(n)) return false;
     for (Ipopt::Index k = 0; k < m; ++k)
       for (Ipopt::Index i = 0; i < n; ++i) values[k * n + i] = jac_(k, i);
     return true;
@@ -161,7 +161,7 @@ class PolishNlp final : public Ipopt::TNLP {
         }
       return true;
     }
-    if (!update(n, x, new_x)) return false;
+    if (!update(n, x, new_x) || !derivatives(n)) return false;
     const Eigen::Map<const Eigen::VectorXd> lam(lambda, m);
     const Eigen::Map<const Eigen::VectorXd> xv(x, n);
     if (B_.rows() != n) B_ = Eigen::MatrixXd::Identity(n, n);
@@ -252,14 +252,24 @@ class PolishNlp final : public Ipopt::TNLP {
     }
   }
 
+  // The objective and constraints at a new x. Their derivatives wait for derivatives(): Ipopt
+  // asks only for values at the line search's trial points, and most of those are rejected.
   bool update(Ipopt::Index n, const Ipopt::Number* x, bool new_x) {
     if (!new_x && have_) return ok_;
     have_ = true;
-    Eigen::VectorXd u = u_full_;
-    for (Ipopt::Index i = 0; i < n; ++i) u[free_[i]] = x[i];
-    ok_ = value(u, f0_, c0_);
+    have_derivatives_ = false;
+    u_ = u_full_;
+    for (Ipopt::Index i = 0; i < n; ++i) u_[free_[i]] = x[i];
+    ok_ = value(u_, f0_, c0_);
     if (!ok_) return false;
-    rememberIfBest(u);
+    rememberIfBest(u_);
+    return true;
+  }
+
+  // Forward-difference gradient and Jacobian at the point of the last update().
+  bool derivatives(Ipopt::Index n) {
+    if (have_derivatives_) return true;
+    const Eigen::VectorXd& u = u_;
     grad_.resize(n);
     jac_.resize(m_, n);
     Eigen::VectorXd c1;
@@ -274,6 +284,7 @@ class PolishNlp final : public Ipopt::TNLP {
       grad_[i] = (f1 - f0_) / step;
       jac_.col(i) = (c1 - c0_) / step;
     }
+    have_derivatives_ = true;
     return true;
   }
 
@@ -283,7 +294,8 @@ class PolishNlp final : public Ipopt::TNLP {
   bool apex_ = false;
   int m_ = 0;
   int iterations_ = 0;
-  bool have_ = false, ok_ = false;
+  bool have_ = false, ok_ = false, have_derivatives_ = false;
+  Eigen::VectorXd u_;  // full vector of the last update()
   double f0_ = 0.0;
   Eigen::VectorXd c0_, grad_;
   Eigen::MatrixXd jac_;
@@ -320,7 +332,9 @@ PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0,
   app->Options()->SetNumericValue("acceptable_tol", 1e-3);
   app->Options()->SetIntegerValue("acceptable_iter", 3);
   std::lock_guard<std::mutex> lock(ipoptMutex());
-  if (app->Initialize() != Ipopt::Solve_Succeeded) return PolishOutcome::Failed;
+  // "": no options file. Ipopt otherwise reads ./ipopt.opt, and a stray file in the service's
+  // working directory would change its plans behind the settings (and the cache key).
+  if (app->Initialize("") != Ipopt::Solve_Succeeded) return PolishOutcome::Failed;
   const Ipopt::ApplicationReturnStatus status = app->OptimizeTNLP(nlp);
   if (iterations) *iterations = nlp->iterations();
   u = nlp->solution();

@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <unistd.h>
+#include <fstream>
+#include <filesystem>
 
 #include <cmath>
 #include <map>
@@ -504,6 +507,27 @@ TEST(JumpPlanner, PolishNeverWorsensTheCost) {
     EXPECT_LE(r.final_cost, r.de_cost) << name;
     EXPECT_NE(r.polish, PolishOutcome::NotRun) << name;
   }
+}
+
+TEST(JumpPlanner, PolishIgnoresAnIpoptOptionsFileInTheWorkingDirectory) {
+  // Ipopt reads ./ipopt.opt by default; the planner's settings alone must decide the plan.
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "forward_hw");
+  PlanOptions o;
+  o.seed = 3;
+  const PlannerResult reference = planner.plan(sc.task, sc.initial, o);
+  ASSERT_GT(reference.polish_iterations, 1);
+  const auto previous = std::filesystem::current_path();
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("wj_ipopt_opt_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir / "ipopt.opt") << "max_iter 1\n";
+  std::filesystem::current_path(dir);
+  const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+  std::filesystem::current_path(previous);
+  std::filesystem::remove_all(dir);
+  EXPECT_EQ(r.polish_iterations, reference.polish_iterations);
+  EXPECT_EQ(r.u, reference.u);
 }
 
 TEST(JumpPlanner, BadArgumentsGiveClearErrors) {
