@@ -24,8 +24,11 @@ class JumpProblem final : public de::Problem {
   Eigen::VectorXd upperBounds() const override { return model_.upperBounds(); }
   bool isThreadSafe() const override { return true; }
 
-  struct Work final : de::Workspace {
+  // Each worker writes its Evaluation at every constraint sample: on a cache line of its own,
+  // or the two workers' writes bounce the line shared by neighbouring heap blocks.
+  struct alignas(128) Work final : de::Workspace {
     Evaluation ev;
+    char padding[128] = {};
   };
   std::unique_ptr<de::Workspace> createWorkspace() const override {
     return std::make_unique<Work>();

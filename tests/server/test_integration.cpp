@@ -289,6 +289,7 @@ TEST(Integration, CancellationStopsTheWork) {
   TempDir dir("wj-it");
   ServerConfig config = test::testConfig(dir.path());
   config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  config.planner.max_evaluations_cap = 10'000'000;  // the search must outlast the 0.5 s wait
   config.executor.plan_workers = 1;
   ServerProcess server(config, dir / "server.yaml");
   client::PlannerClient c(clientFor(server.target()));

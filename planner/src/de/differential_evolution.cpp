@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "adaptation.h"
+#include "batch_team.h"
 #include "operators.h"
 #include "random.h"
 
@@ -112,7 +113,13 @@ class Run {
     }
   }
 
-  Result solve(const Eigen::MatrixXd& warm_start, const std::atomic<bool>* cancel) {
+  /// Number of worker threads (workspaces) this run evaluates on.
+  int workers() const { return static_cast<int>(workspaces_.size()); }
+
+  /// `team`: the threads that evaluate the batches with the calling one (nullptr: serial).
+  Result solve(const Eigen::MatrixXd& warm_start, const std::atomic<bool>* cancel,
+               BatchTeam* team = nullptr) {
+    team_ = team;
     initialize(warm_start);
     rank();
     record(ControlParameters{settings_.F, settings_.CR});
@@ -138,20 +145,22 @@ class Run {
   /// With `bounds`, candidate i is evaluated with cut-off bounds[i].cost (evaluateBounded).
   void evaluate(const Eigen::MatrixXd& x, int count, std::vector<Fitness>& out,
                 const std::vector<Fitness>* bounds = nullptr) {
-    const int threads = static_cast<int>(workspaces_.size());
-    const int chunk = std::max(1, count / (4 * threads));
-#pragma omp parallel for num_threads(threads) schedule(dynamic, chunk) if (threads > 1 && count > 1)
-    for (int i = 0; i < count; ++i) {
-      Workspace& workspace = *workspaces_[static_cast<std::size_t>(omp_get_thread_num())];
+    auto task = [&](int i, int thread) {
+      Workspace& workspace = *workspaces_[static_cast<std::size_t>(thread)];
       try {
         Fitness f = bounds ? problem_.evaluateBounded(
                                  x.col(i), workspace, (*bounds)[static_cast<std::size_t>(i)].cost)
                            : problem_.evaluate(x.col(i), workspace);
         if (std::isnan(f.cost)) f.cost = std::numeric_limits<double>::infinity();
         out[static_cast<std::size_t>(i)] = f;
-      } catch (...) {  // an exception must not escape an OpenMP region; rethrown below
+      } catch (...) {  // rethrown below, on the calling thread
         errors_[static_cast<std::size_t>(i)] = std::current_exception();
       }
+    };
+    if (team_ != nullptr && count > 1) {
+      team_->run(count, task);
+    } else {
+      for (int i = 0; i < count; ++i) task(i, 0);
     }
     for (int i = 0; i < count; ++i) {
       if (errors_[static_cast<std::size_t>(i)])
@@ -373,6 +382,7 @@ class Run {
   Eigen::MatrixXd archive_;   ///< JADE archive (CurrentToPBest1Bin only)
   int archive_size_ = 0;
   std::vector<std::unique_ptr<Workspace>> workspaces_;  ///< one per OpenMP thread
+  BatchTeam* team_ = nullptr;
   std::vector<std::exception_ptr> errors_;              ///< evaluation errors of a batch
 
   double stagnation_reference_ = std::numeric_limits<double>::infinity();
@@ -480,7 +490,28 @@ Result Solver::solve(const Problem& problem, const Eigen::MatrixXd& warm_start,
   Box box = checkedBox(problem);
   checkWarmStart(warm_start, static_cast<int>(box.lower.size()));
   Run run(settings_, problem, std::move(box), start);
-  return run.solve(warm_start, cancel);
+  if (run.workers() <= 1) return run.solve(warm_start, cancel);
+  // One OpenMP team for the whole solve: thread 0 runs the algorithm, the others evaluate each
+  // generation's batch with it (batch_team.h). The spin outlasts the serial work between two
+  // batches (a few microseconds at NP = 32) with room to spare.
+  BatchTeam team(std::chrono::microseconds(50));
+  Result result;
+  std::exception_ptr error;
+#pragma omp parallel num_threads(run.workers())
+  {
+    if (omp_get_thread_num() == 0) {
+      try {
+        result = run.solve(warm_start, cancel, &team);
+      } catch (...) {  // an exception must not escape an OpenMP region
+        error = std::current_exception();
+      }
+      team.stop();
+    } else {
+      team.work(omp_get_thread_num());
+    }
+  }
+  if (error) std::rethrow_exception(error);
+  return result;
 }
 
 }  // namespace wj::planner::de
