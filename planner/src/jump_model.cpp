@@ -1221,17 +1221,25 @@ bool JumpModel::evaluateConstraints(const Eigen::Ref<const Eigen::VectorXd>& u,
   return true;
 }
 
-Eigen::VectorXd JumpModel::decisionVector(const Eigen::Ref<const Eigen::VectorXd>& u) const {
-  Solved S;
-  if (!JumpModelAccess::solve(*this, u, S))
-    throw std::runtime_error("JumpModel::decisionVector: candidate has no valid trajectory");
+namespace {
+// D = [s(t1/2), s(t2), s(t3), t1, t2, t3] of a solved candidate.
+Eigen::VectorXd decisionOf(const Solved& S) {
   Eigen::VectorXd D(12);
   D << S.mid.x, S.mid.z, S.mid.pitch, S.takeoff.x, S.takeoff.z, S.takeoff.pitch, S.touchdown.x,
       S.touchdown.z, S.touchdown.pitch, S.t1, S.t2, S.t3;
   return D;
 }
+}  // namespace
 
-JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const {
+Eigen::VectorXd JumpModel::decisionVector(const Eigen::Ref<const Eigen::VectorXd>& u) const {
+  Solved S;
+  if (!JumpModelAccess::solve(*this, u, S))
+    throw std::runtime_error("JumpModel::decisionVector: candidate has no valid trajectory");
+  return decisionOf(S);
+}
+
+JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
+                              const Evaluation* evaluation) const {
   Solved S;
   if (!JumpModelAccess::solve(*this, u, S))
     throw std::runtime_error("JumpModel::buildPlan: candidate has no valid trajectory");
@@ -1332,10 +1340,14 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const 
                                                 (t - std::min((k - 1) * plan.dt, S.t3));
     }
   }
-  plan.decision = decisionVector(u);
-  Evaluation ev;
-  evaluate(u, ev);
-  plan.predicted = ev.predicted;
+  plan.decision = decisionOf(S);
+  if (evaluation != nullptr && evaluation->valid && !evaluation->cut_off) {
+    plan.predicted = evaluation->predicted;
+  } else {
+    Evaluation ev;
+    evaluate(u, ev);
+    plan.predicted = ev.predicted;
+  }
   return plan;
 }
 

@@ -307,7 +307,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
 
   r.binding = findBindingClasses(r.evaluation);
   r.summary = summarizeEvaluation(r.evaluation, r.binding);
-  if (r.evaluation.valid) r.plan = model.buildPlan(r.u);
+  if (r.evaluation.valid) r.plan = model.buildPlan(r.u, &r.evaluation);
   r.total_ms = msSince(t_start);
   return r;
 }

@@ -442,7 +442,7 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
     std::optional<planner::JumpModel> model;
     time("model", [&] { model.emplace(robot, settings, r.task, r.initial); });
     time("evaluate", [&] { model->evaluate(u, a.evaluation); });
-    time("build_plan", [&] { a.plan = model->buildPlan(u); });
+    time("build_plan", [&] { a.plan = model->buildPlan(u, &a.evaluation); });
     time("describe", [&] { wj::server::describeEvaluation(a.evaluation, a.binding, a.summary); });
     // On an arena with the server's block sizes (grpc_service.cpp), as the server builds it.
     google::protobuf::ArenaOptions arena_options;

@@ -455,7 +455,7 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     plans.reserve(result.candidates.size());
     plans.push_back(result.plan);
     for (std::size_t k = 1; k < result.candidates.size(); ++k)
-      plans.push_back(model.buildPlan(result.candidates[k].u));
+      plans.push_back(model.buildPlan(result.candidates[k].u, &result.candidates[k].evaluation));
     auto shared_plans = std::make_shared<const std::vector<planner::JumpPlan>>(std::move(plans));
     auto batch = std::make_shared<VerifyBatch>(shared_plans->size());
     const planner::JumpTask task = request.task;
@@ -650,7 +650,7 @@ PlanAnswer PlanningCore::answerFromSolution(const CachedSolution& s, const PlanR
   model.evaluate(u, a.evaluation);
   if (!a.evaluation.valid)
     throw std::runtime_error("the cached solution has no valid trajectory at this state");
-  a.plan = model.buildPlan(u);
+  a.plan = model.buildPlan(u, &a.evaluation);
   describeEvaluation(a.evaluation, a.binding, a.summary);
   a.verification = summaryOf(s.verification);
   a.source = source;

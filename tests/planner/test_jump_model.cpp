@@ -332,6 +332,29 @@ TEST(JumpModel, PenaltyFollowsThePrioritizedForm) {
               1e-9 * ev.cost);
 }
 
+TEST(JumpModel, BuildPlanReusesTheCallersEvaluation) {
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "forward");
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  const Eigen::VectorXd u = nominalU(m);
+  Evaluation ev;
+  m.evaluate(u, ev);
+  ASSERT_TRUE(ev.valid);
+  const JumpPlan own = m.buildPlan(u);
+  const JumpPlan reused = m.buildPlan(u, &ev);
+  EXPECT_EQ(own.decision, reused.decision);
+  EXPECT_EQ(own.decision, m.decisionVector(u));
+  EXPECT_EQ(own.predicted.apex.state.z, reused.predicted.apex.state.z);
+  EXPECT_EQ(own.predicted.touchdown.state.x, reused.predicted.touchdown.state.x);
+  EXPECT_EQ(own.predicted.touchdown.t, reused.predicted.touchdown.t);
+  EXPECT_EQ(own.q, reused.q);
+  // A cut-off evaluation is partial: it is not used.
+  Evaluation partial;
+  m.evaluate(u, partial, 0.0);
+  ASSERT_TRUE(partial.cut_off);
+  EXPECT_EQ(m.buildPlan(u, &partial).predicted.apex.state.z, own.predicted.apex.state.z);
+}
+
 TEST(JumpModel, CutOffEvaluationBoundsTheFullCostFromBelow) {
   // evaluate() with a cut-off either runs in full (the same numbers as without one) or stops
   // with a cost above the cut-off and at most the full cost.

@@ -104,8 +104,11 @@ class JumpModel {
 
   /// The paper's decision vector D = [s(t1/2), s(t2), s(t3), t1, t2, t3] for candidate u.
   Eigen::VectorXd decisionVector(const Eigen::Ref<const Eigen::VectorXd>& u) const;
-  /// The dense plan for candidate u (throws std::runtime_error if u is invalid).
-  JumpPlan buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u) const;
+  /// The dense plan for candidate u (throws std::runtime_error if u is invalid). `evaluation`,
+  /// if given, must be this model's evaluate(u) without a cut-off: its predicted outcome is
+  /// used instead of evaluating u again (a cache hit has just evaluated it).
+  JumpPlan buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
+                     const Evaluation* evaluation = nullptr) const;
 
   /// CoM state at t = 0 (x = 0).
   const PlanarState& initialState() const { return initial_; }
