@@ -81,7 +81,8 @@ std::unique_ptr<PlanVerifier> makeSimVerifier(const model::RobotModel& robot,
   settings.acceptance.max_touchdown_pitch_error_rad = config.max_touchdown_pitch_error_rad;
   // The sim's built-in defaults are covered by the version tag: bump it when they change.
   // v2: the executor lands with landing_kp 120 (was 60), which changes verdicts.
-  std::uint64_t h = fnv1a64("wj::sim::Verifier v2");
+  // v3: the run ends once the robot has been at rest for settle_window_s (0.2 s).
+  std::uint64_t h = fnv1a64("wj::sim::Verifier v3");
   h = fnv1a64(sim_text, h);
   for (const double x : {config.max_apex_height_error_m, config.max_touchdown_dx_error_m,
                          config.max_touchdown_pitch_error_rad}) {

@@ -253,6 +253,18 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
   double first_obstacle_contact = kInf;
   double first_base_contact = kInf, first_leg_contact = kInf;
   r.measured.min_obstacle_clearance = kInf;
+  const double slope = scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0;
+  r.nominal_base_height_m =
+      calcStandingStatics(model_, plan.q_landing, sim_settings.gravity_m_s2).base_height_m;
+  // The end-of-run bounds on the landing, checked at the end or, once they hold, every step.
+  auto at_rest = [&](const GroundTruth& g, double pitch_now) {
+    return std::abs(pitch_now - slope) <= acc.max_final_pitch_rad &&
+           std::abs(rollOf(g.X_WB.linear())) <= acc.max_final_roll_rad &&
+           std::abs(calcTerrainDistance(scenario.terrain, g.X_WB.translation()) -
+                    r.nominal_base_height_m) <= acc.base_height_tolerance_m &&
+           g.w_WB.norm() <= acc.max_final_angular_speed_rad_s && !g.base_in_contact;
+  };
+  double at_rest_since = kInf;
   for (;;) {
     robot.read(sensors);
     robot.calcGroundTruth(gt, static_cast<bool>(telemetry));
@@ -329,6 +341,16 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
     if (telemetry) telemetry(makeSample(gt, executor.phase()));
 
     if (executor.finished(t) || t >= stop_time) break;
+    if (acc.settle_window_s > 0.0 && executor.phase() == JumpPhase::Landing && r.touched_down) {
+      if (!at_rest(gt, pitch)) {
+        at_rest_since = kInf;
+      } else if (at_rest_since == kInf) {
+        at_rest_since = t;
+      } else if (t - at_rest_since >= acc.settle_window_s) {
+        r.settled_early = true;
+        break;
+      }
+    }
     robot.write(commands);
     try {
       robot.advance();
@@ -342,14 +364,11 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
 
   // Landing state at the end of the run.
   const Eigen::Matrix3d R_WB = gt.X_WB.linear();
-  const double slope = scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0;
   r.final_time_s = gt.t;
   r.final_base_height_m = calcTerrainDistance(scenario.terrain, gt.X_WB.translation());
   r.final_pitch_rad = pitch - slope;
   r.final_roll_rad = rollOf(R_WB);
   r.final_angular_speed_rad_s = gt.w_WB.norm();
-  r.nominal_base_height_m =
-      calcStandingStatics(model_, plan.q_landing, sim_settings.gravity_m_s2).base_height_m;
   r.base_contact = first_base_contact < kInf;
   r.leg_contact = first_leg_contact < kInf;
 

@@ -111,11 +111,36 @@ TEST_F(VerifierTest, SoundVerticalJumpFromRollingPassesAndMatchesPrediction) {
   EXPECT_GT(r.max_envelope_ratio, 0.1);
   EXPECT_TRUE(std::isinf(r.measured.min_obstacle_clearance));
   EXPECT_NEAR(r.final_base_height_m, r.nominal_base_height_m, 0.02);
-  EXPECT_NEAR(r.final_time_s, r.measured.touchdown.t + ExecutorSettings{}.landing_duration_s, 2e-3);
+  // The run ends once the robot has been at rest for the settle window, before the landing
+  // phase is over.
+  EXPECT_TRUE(r.settled_early);
+  EXPECT_GE(r.final_time_s, r.measured.touchdown.t + AcceptanceCriteria{}.settle_window_s);
+  EXPECT_LT(r.final_time_s, r.measured.touchdown.t + ExecutorSettings{}.landing_duration_s);
   // Knees do work in the push; the wheel drives hold the rolling speed.
   const int knee = model::jointIndex(model::Leg::LF, model::JointKind::KFE);
   EXPECT_GT(r.joints[knee].max_abs_torque_nm, 5.0);
   EXPECT_GT(r.joints[knee].max_abs_speed_rad_s, 1.0);
+}
+
+TEST_F(VerifierTest, EndingAtRestGivesTheVerdictOfTheWholeLandingPhase) {
+  VerifierSettings full_settings;
+  full_settings.acceptance.settle_window_s = 0.0;  // simulate the whole landing phase
+  const Verifier full_verifier(robot_, full_settings);
+  for (const double v0 : {0.0, 1.0}) {
+    const planner::JumpPlan plan = verticalJump(robot_, v0);
+    const VerificationReport early = verifier_.verify(plan, Scenario{});
+    const VerificationReport full = full_verifier.verify(plan, Scenario{});
+    EXPECT_FALSE(full.settled_early);
+    EXPECT_NEAR(full.final_time_s, full.measured.touchdown.t + ExecutorSettings{}.landing_duration_s,
+                2e-3);
+    EXPECT_TRUE(early.settled_early);
+    EXPECT_LT(early.integrator_steps, full.integrator_steps);
+    EXPECT_EQ(early.passed, full.passed) << describe(early) << "\n" << describe(full);
+    EXPECT_EQ(early.failures, full.failures);
+    EXPECT_NEAR(early.final_base_height_m, full.final_base_height_m, 0.01);
+    EXPECT_NEAR(early.final_pitch_rad, full.final_pitch_rad, 0.05);
+    EXPECT_EQ(early.measured.apex.state.z, full.measured.apex.state.z);
+  }
 }
 
 TEST_F(VerifierTest, TorquesBeyondTheEnvelopeFailWithTorqueLimit) {

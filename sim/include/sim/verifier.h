@@ -83,6 +83,11 @@ struct AcceptanceCriteria {
   double max_final_pitch_rad = 0.25;        ///< |pitch relative to the ground slope| at the end
   double max_final_roll_rad = 0.25;         ///< |roll| at the end [rad]
   double max_final_angular_speed_rad_s = 0.5;  ///< |angular velocity of the base| at the end
+  /// The run ends early once every end-of-run bound above (pitch, roll, height, angular speed,
+  /// no base contact) has held without a break for this long in the landing phase: the robot
+  /// is at rest, and simulating the rest of landing_duration_s only costs time. 0 = always
+  /// run the whole landing phase.
+  double settle_window_s = 0.2;
   double initial_gap_tolerance_m = 0.01;  ///< |lowest wheel's distance to terrain| at t = 0 [m]
   /// |measured - predicted| limits on the outcome (plan.predicted); infinity disables a check.
   /// The defaults are sanity bounds for any task; a caller that knows the task's target
@@ -154,6 +159,7 @@ struct VerificationReport {
   double initial_ground_gap_m = 0.0;   ///< lowest wheel's distance to the terrain at t = 0
   double nominal_base_height_m = 0.0;  ///< rigid standing height of q_landing
   double final_time_s = 0.0;           ///< end of the run [s]
+  bool settled_early = false;  ///< ended before landing_duration_s: at rest for settle_window_s
   double final_base_height_m = 0.0;    ///< base origin above the terrain at the end [m]
   double final_pitch_rad = 0.0;        ///< relative to the ground slope
   double final_roll_rad = 0.0;
