@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -195,8 +196,34 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     model.evaluate(x, ev);
     return !ev.constraints_ok;
   };
+  const bool polish_on = options.polish.value_or(settings_.polish) &&
+                         settings_.polish_max_iterations > 0;
+  // Polish between attempts: a trapped attempt often ends next to a feasible plan that the
+  // polish reaches (forward preset: 5 of 10 first attempts), and the attempts after it are then
+  // not needed. The points polished here are not polished again below.
+  std::vector<Eigen::VectorXd> polished;
+  double between_polish_ms = 0.0;
+  std::optional<std::pair<Eigen::VectorXd, Evaluation>> early;
+  auto polishAttempt = [&](const Eigen::VectorXd& x) {
+    const auto tp = Clock::now();
+    polished.push_back(x);
+    Eigen::VectorXd u_try;
+    int iterations = 0;
+    if (polishWithIpopt(model, x, u_try, &iterations) != PolishOutcome::Failed) {
+      r.polish_iterations += iterations;
+      Evaluation ev;
+      model.evaluate(u_try, ev);
+      if (ev.feasible) early.emplace(u_try, ev);
+    }
+    between_polish_ms += msSince(tp);
+    return early.has_value();
+  };
   for (int restart = 1;
        !r.de.best.feasible && restart <= settings_.de_restarts && trapped(r.de.best_x); ++restart) {
+    if (polish_on && settings_.polish_between_attempts &&
+        !(options.cancel && options.cancel->load()) &&
+        polishAttempt(attempt_bests.back().second))
+      break;
     const bool cut_short = r.de.stop_reason == de::StopReason::Cancelled ||
                            r.de.stop_reason == de::StopReason::TimeBudget;
     const std::int64_t left = total_budget - r.de.evaluations;
@@ -232,14 +259,27 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     r.de = std::move(next);
     ++r.de_restarts;
   }
-  r.de.elapsed_s = msSince(t0) / 1e3;
-  r.de_ms = msSince(t0);
+  r.de.elapsed_s = (msSince(t0) - between_polish_ms) / 1e3;
+  r.de_ms = msSince(t0) - between_polish_ms;
   r.de_cost = r.de.best.cost;
   r.u = r.de.best_x;
   model.evaluate(r.u, r.evaluation);
+  auto wasPolished = [&polished](const Eigen::VectorXd& x) {
+    return std::find(polished.begin(), polished.end(), x) != polished.end();
+  };
 
-  const bool do_polish = options.polish.value_or(settings_.polish) && r.evaluation.valid &&
-                         settings_.polish_max_iterations > 0;
+  if (early) {
+    r.u = early->first;
+    r.evaluation = early->second;
+    r.polish = PolishOutcome::Improved;
+    r.polish_ms = between_polish_ms;
+  }
+  r.polish_ms = between_polish_ms;
+  const bool do_polish = polish_on && r.evaluation.valid && !early;
+  if (do_polish && wasPolished(r.u)) {
+    // The best attempt was polished between attempts, in vain: only the retries remain.
+    r.polish = PolishOutcome::Rejected;
+  }
   if (do_polish) {
     t0 = Clock::now();
     Eigen::VectorXd u_pol;
@@ -247,8 +287,12 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     // the back-off there; the energy it would still gain is small (docs/planner.md).
     const int max_iterations =
         options.warm_start.cols() > 0 ? settings_.polish_warm_max_iterations : 0;
-    r.polish = polishWithIpopt(model, r.u, u_pol, &r.polish_iterations, max_iterations);
-    if (r.polish != PolishOutcome::Failed) {
+    if (!wasPolished(r.u)) {
+      int iterations = 0;
+      r.polish = polishWithIpopt(model, r.u, u_pol, &iterations, max_iterations);
+      r.polish_iterations += iterations;
+    }
+    if (!wasPolished(r.u) && r.polish != PolishOutcome::Failed) {
       Evaluation ev;
       model.evaluate(u_pol, ev);
       // The polish never worsens the result: keep its point only if the cost drops and it is
@@ -268,7 +312,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     int retries = 0;
     for (const auto& [cost, x] : attempt_bests) {
       if (r.evaluation.feasible || retries >= settings_.polish_retries) break;
-      if (x.size() != r.de.best_x.size() || x == r.de.best_x) continue;
+      if (x.size() != r.de.best_x.size() || x == r.de.best_x || wasPolished(x)) continue;
       if (options.cancel && options.cancel->load()) break;
       ++retries;
       Eigen::VectorXd u_retry;
@@ -284,7 +328,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
       }
     }
     r.polish_retries = retries;
-    r.polish_ms = msSince(t0);
+    r.polish_ms = between_polish_ms + msSince(t0);
   }
   r.final_cost = r.evaluation.cost;
 

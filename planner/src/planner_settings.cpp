@@ -330,6 +330,8 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"warm_max_iterations", integer(s.polish_warm_max_iterations)},
                       {"tolerance", number(s.polish_tolerance)},
                       {"retries", integer(s.polish_retries)},
+                      {"between_attempts",
+                       [&](const YAML::Node& v) { s.polish_between_attempts = v.as<bool>(); }},
                       {"stall_iterations", integer(s.polish_stall_iterations)},
                       {"backoff", number(s.polish_backoff)}});
        }},

@@ -196,6 +196,7 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.putDouble(s.polish_tolerance);
   w.put(s.polish_retries);
   w.put(s.polish_stall_iterations);
+  w.putBool(s.polish_between_attempts);
   w.putDouble(s.polish_backoff);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over

@@ -520,6 +520,26 @@ TEST(JumpPlanner, CutOffTrialsGiveTheSamePlan) {
   EXPECT_EQ(a.u, b.u);
 }
 
+TEST(JumpPlanner, PolishBetweenAttemptsStopsAtTheFirstFeasiblePolish) {
+  // Forward preset, seed 2: the first DE attempt ends trapped next to a feasible plan.
+  PlannerSettings s;
+  s.polish_between_attempts = false;
+  const JumpPlanner after_all = makePlanner(s);
+  s.polish_between_attempts = true;
+  const JumpPlanner between = makePlanner(s);
+  const Scenario sc = makePreset(between, "forward");
+  PlanOptions o;
+  o.seed = 2;
+  const PlannerResult a = after_all.plan(sc.task, sc.initial, o);
+  const PlannerResult b = between.plan(sc.task, sc.initial, o);
+  EXPECT_TRUE(a.evaluation.feasible);
+  ASSERT_TRUE(b.evaluation.feasible) << b.summary;
+  EXPECT_EQ(b.polish, PolishOutcome::Improved);
+  EXPECT_EQ(b.de_restarts, 0);
+  EXPECT_GT(a.de_restarts, 0);
+  EXPECT_LT(b.de.evaluations, a.de.evaluations);
+}
+
 TEST(JumpPlanner, PolishNeverWorsensTheCost) {
   const JumpPlanner planner = makePlanner();
   for (const auto& name : presetNames()) {

@@ -101,6 +101,9 @@ struct PlannerSettings {
   /// Near the feasibility boundary the attempts end in different basins, and the polish that
   /// fails from one often succeeds from another.
   int polish_retries = 3;
+  /// Polish the best of an attempt that ends trapped (a constraint violated) before starting
+  /// the next one, and stop if the polished plan is feasible.
+  bool polish_between_attempts = true;
   /// Stop the polish once a point meeting every constraint is known and this many iterations in
   /// a row have not lowered its energy by 0.1 % (0 = run to Ipopt's own convergence or
   /// max_iterations).
