@@ -480,6 +480,14 @@ TEST(JumpPlanner, UnreachableTargetNamesTheBindingConstraints) {
   EXPECT_GT(r.evaluation.predicted.apex.state.z, sc.task.target.height - 0.1);
 }
 
+// Two plans made the same DE decisions: the same best cost in every generation, the same point.
+void expectSameSearch(const PlannerResult& a, const PlannerResult& b) {
+  ASSERT_EQ(a.de.log.size(), b.de.log.size());
+  for (std::size_t i = 0; i < a.de.log.size(); ++i)
+    EXPECT_EQ(a.de.log[i].best_cost, b.de.log[i].best_cost) << "generation " << i;
+  EXPECT_EQ(a.u, b.u);
+}
+
 TEST(JumpPlanner, SameSeedSamePlanAtAnyThreadCount) {
   const JumpPlanner planner = makePlanner();
   const Scenario sc = makePreset(planner, "forward");
@@ -491,10 +499,7 @@ TEST(JumpPlanner, SameSeedSamePlanAtAnyThreadCount) {
   const PlannerResult a = planner.plan(sc.task, sc.initial, o);
   o.threads = 2;
   const PlannerResult b = planner.plan(sc.task, sc.initial, o);
-  ASSERT_EQ(a.de.log.size(), b.de.log.size());
-  for (std::size_t i = 0; i < a.de.log.size(); ++i)
-    EXPECT_EQ(a.de.log[i].best_cost, b.de.log[i].best_cost) << "generation " << i;
-  EXPECT_EQ(a.u, b.u);
+  expectSameSearch(a, b);
   o.seed = 8;
   const PlannerResult c = planner.plan(sc.task, sc.initial, o);
   EXPECT_NE(a.u, c.u);
@@ -514,10 +519,7 @@ TEST(JumpPlanner, CutOffTrialsGiveTheSamePlan) {
   o.threads = 2;
   const PlannerResult a = full_planner.plan(sc.task, sc.initial, o);
   const PlannerResult b = bounded_planner.plan(sc.task, sc.initial, o);
-  ASSERT_EQ(a.de.log.size(), b.de.log.size());
-  for (std::size_t i = 0; i < a.de.log.size(); ++i)
-    EXPECT_EQ(a.de.log[i].best_cost, b.de.log[i].best_cost) << "generation " << i;
-  EXPECT_EQ(a.u, b.u);
+  expectSameSearch(a, b);
 }
 
 TEST(JumpPlanner, PolishBetweenAttemptsStopsAtTheFirstFeasiblePolish) {
