@@ -235,7 +235,8 @@ int main(int argc, char** argv) {
         // The same run with every trial evaluated in full (no cut-off at the parent's cost).
         PlannerSettings no_cut_off = no_early_stop;
         no_cut_off.de.bounded_trials = false;
-        full_wall.push_back(JumpPlanner(planner.robot(), no_cut_off).plan(sc.task, sc.initial, o).de_ms);
+        full_wall.push_back(
+            JumpPlanner(planner.robot(), no_cut_off).plan(sc.task, sc.initial, o).de_ms);
         const json ps = runPagmo("sade", planner, sc, static_cast<unsigned>(s), budget, pop);
         sade_feasible += ps["feasible"].get<bool>();
         if (ps["feasible"].get<bool>())
@@ -248,27 +249,26 @@ int main(int argc, char** argv) {
           de_first.push_back(pd["first_feasible_s"].get<double>() * 1e3);
         de_cost.push_back(pd["final_cost"].get<double>());
       }
-      out["vs_pagmo"][name] = {{"budget_evaluations", budget},
-                               {"ours_2_threads",
-                                {{"feasible_runs", ours_feasible},
-                                 {"median_first_feasible_ms", median(ours_first)},
-                                 {"median_wall_ms", median(ours_wall)},
-                                 {"median_final_cost", median(ours_cost)}}},
-                               {"pagmo_sade",
-                                {{"feasible_runs", sade_feasible},
-                                 {"median_first_feasible_ms", median(sade_first)},
-                                 {"median_wall_ms", median(sade_wall)},
-                                 {"median_final_cost", median(sade_cost)}}},
-                               {"pagmo_de",
-                                {{"feasible_runs", de_feasible},
-                                 {"median_first_feasible_ms", median(de_first)},
-                                 {"median_final_cost", median(de_cost)}}},
-                               {"ours_2_threads_without_cut_off",
-                                {{"median_wall_ms", median(full_wall)}}},
-                               {"wall_ratio_sade_over_ours", median(sade_wall) / median(ours_wall)},
-                               {"wall_ratio_sade_over_ours_without_cut_off",
-                                median(sade_wall) / median(full_wall)},
-                               {"runs", runs}};
+      out["vs_pagmo"][name] = {
+          {"budget_evaluations", budget},
+          {"ours_2_threads",
+           {{"feasible_runs", ours_feasible},
+            {"median_first_feasible_ms", median(ours_first)},
+            {"median_wall_ms", median(ours_wall)},
+            {"median_final_cost", median(ours_cost)}}},
+          {"pagmo_sade",
+           {{"feasible_runs", sade_feasible},
+            {"median_first_feasible_ms", median(sade_first)},
+            {"median_wall_ms", median(sade_wall)},
+            {"median_final_cost", median(sade_cost)}}},
+          {"pagmo_de",
+           {{"feasible_runs", de_feasible},
+            {"median_first_feasible_ms", median(de_first)},
+            {"median_final_cost", median(de_cost)}}},
+          {"ours_2_threads_without_cut_off", {{"median_wall_ms", median(full_wall)}}},
+          {"wall_ratio_sade_over_ours", median(sade_wall) / median(ours_wall)},
+          {"wall_ratio_sade_over_ours_without_cut_off", median(sade_wall) / median(full_wall)},
+          {"runs", runs}};
     }
   }
   // 5. Backflip what-if: how much stronger must the actuators be (paper: 57 Nm at the knee)?

@@ -13,7 +13,7 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kInvalidCost = 1e16;
 // 10^n, exact, for the penalty's 10^(n+3) and 10^n with priorities n <= 10.
-constexpr std::array<double, 14> kPow10 = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,
+constexpr std::array<double, 14> kPow10 = {1e0, 1e1, 1e2, 1e3,  1e4,  1e5,  1e6,
                                            1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13};
 // Fixed-point steps for the posture-dependent CoM offset per sample, warm-started from the
 // previous sample (the contraction factor is the legs' mass fraction, ~0.35), plus a final pass.
@@ -343,8 +343,7 @@ struct JumpModelAccess {
     const double g = st.gravity;
     const bool apex = tgt.event == TargetEvent::Apex;
     const double t_apex = std::max(S.takeoff.vz / g, 0.0);
-    const PlanarState at =
-        ballisticG(S.takeoff, apex ? (S.t2 + t_apex) - S.t2 : S.t3 - S.t2, g);
+    const PlanarState at = ballisticG(S.takeoff, apex ? (S.t2 + t_apex) - S.t2 : S.t3 - S.t2, g);
     const double e0 = at.x - M.initial_.x - tgt.dx;
     const double e1 = apex ? at.z - tgt.height : 0.0;
     return std::pow(e0 / st.tolerance_dx_m, 2) + std::pow(e1 / st.tolerance_height_m, 2);

@@ -196,8 +196,8 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     model.evaluate(x, ev);
     return !ev.constraints_ok;
   };
-  const bool polish_on = options.polish.value_or(settings_.polish) &&
-                         settings_.polish_max_iterations > 0;
+  const bool polish_on =
+      options.polish.value_or(settings_.polish) && settings_.polish_max_iterations > 0;
   // Polish between attempts: a trapped attempt often ends next to a feasible plan that the
   // polish reaches (forward preset: 5 of 10 first attempts), and the attempts after it are then
   // not needed. The points polished here are not polished again below.
@@ -221,8 +221,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   for (int restart = 1;
        !r.de.best.feasible && restart <= settings_.de_restarts && trapped(r.de.best_x); ++restart) {
     if (polish_on && settings_.polish_between_attempts &&
-        !(options.cancel && options.cancel->load()) &&
-        polishAttempt(attempt_bests.back().second))
+        !(options.cancel && options.cancel->load()) && polishAttempt(attempt_bests.back().second))
       break;
     const bool cut_short = r.de.stop_reason == de::StopReason::Cancelled ||
                            r.de.stop_reason == de::StopReason::TimeBudget;

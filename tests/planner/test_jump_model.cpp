@@ -2,10 +2,10 @@
 // evaluators on hand-made cases, and the planner's determinism, polish and input checks.
 #include <gtest/gtest.h>
 
-#include <random>
 #include <unistd.h>
-#include <fstream>
 #include <filesystem>
+#include <fstream>
+#include <random>
 
 #include <cmath>
 #include <map>
@@ -563,8 +563,8 @@ TEST(JumpPlanner, PolishIgnoresAnIpoptOptionsFileInTheWorkingDirectory) {
   const PlannerResult reference = planner.plan(sc.task, sc.initial, o);
   ASSERT_GT(reference.polish_iterations, 1);
   const auto previous = std::filesystem::current_path();
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("wj_ipopt_opt_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("wj_ipopt_opt_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   std::ofstream(dir / "ipopt.opt") << "max_iter 1\n";
   std::filesystem::current_path(dir);

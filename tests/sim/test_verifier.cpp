@@ -131,8 +131,8 @@ TEST_F(VerifierTest, EndingAtRestGivesTheVerdictOfTheWholeLandingPhase) {
     const VerificationReport early = verifier_.verify(plan, Scenario{});
     const VerificationReport full = full_verifier.verify(plan, Scenario{});
     EXPECT_FALSE(full.settled_early);
-    EXPECT_NEAR(full.final_time_s, full.measured.touchdown.t + ExecutorSettings{}.landing_duration_s,
-                2e-3);
+    EXPECT_NEAR(full.final_time_s,
+                full.measured.touchdown.t + ExecutorSettings{}.landing_duration_s, 2e-3);
     EXPECT_TRUE(early.settled_early);
     EXPECT_LT(early.integrator_steps, full.integrator_steps);
     EXPECT_EQ(early.passed, full.passed) << describe(early) << "\n" << describe(full);

@@ -148,8 +148,8 @@ class Run {
     auto task = [&](int i, int thread) {
       Workspace& workspace = *workspaces_[static_cast<std::size_t>(thread)];
       try {
-        Fitness f = bounds ? problem_.evaluateBounded(
-                                 x.col(i), workspace, (*bounds)[static_cast<std::size_t>(i)].cost)
+        Fitness f = bounds ? problem_.evaluateBounded(x.col(i), workspace,
+                                                      (*bounds)[static_cast<std::size_t>(i)].cost)
                            : problem_.evaluate(x.col(i), workspace);
         if (std::isnan(f.cost)) f.cost = std::numeric_limits<double>::infinity();
         out[static_cast<std::size_t>(i)] = f;
@@ -157,7 +157,7 @@ class Run {
         errors_[static_cast<std::size_t>(i)] = std::current_exception();
       }
     };
-    if (team_ != nullptr && count > 1) {
+    if (team_ != nullptr && count > 1 && count <= BatchTeam::kMaxCount) {
       team_->run(count, task);
     } else {
       for (int i = 0; i < count; ++i) task(i, 0);
@@ -383,7 +383,7 @@ class Run {
   int archive_size_ = 0;
   std::vector<std::unique_ptr<Workspace>> workspaces_;  ///< one per OpenMP thread
   BatchTeam* team_ = nullptr;
-  std::vector<std::exception_ptr> errors_;              ///< evaluation errors of a batch
+  std::vector<std::exception_ptr> errors_;  ///< evaluation errors of a batch
 
   double stagnation_reference_ = std::numeric_limits<double>::infinity();
   int stagnant_generations_ = 0;

@@ -160,8 +160,8 @@ struct VerificationReport {
   double nominal_base_height_m = 0.0;  ///< rigid standing height of q_landing
   double final_time_s = 0.0;           ///< end of the run [s]
   bool settled_early = false;  ///< ended before landing_duration_s: at rest for settle_window_s
-  double final_base_height_m = 0.0;    ///< base origin above the terrain at the end [m]
-  double final_pitch_rad = 0.0;        ///< relative to the ground slope
+  double final_base_height_m = 0.0;  ///< base origin above the terrain at the end [m]
+  double final_pitch_rad = 0.0;      ///< relative to the ground slope
   double final_roll_rad = 0.0;
   double final_angular_speed_rad_s = 0.0;
 
