@@ -25,11 +25,8 @@ class JumpProblem final : public de::Problem {
   Eigen::VectorXd upperBounds() const override { return model_.upperBounds(); }
   bool isThreadSafe() const override { return true; }
 
-  // Each worker writes its Evaluation at every constraint sample: on a cache line of its own,
-  // or the two workers' writes bounce the line shared by neighbouring heap blocks.
-  struct alignas(128) Work final : de::Workspace {
+  struct Work final : de::Workspace {
     Evaluation ev;
-    char padding[128] = {};
   };
   std::unique_ptr<de::Workspace> createWorkspace() const override {
     return std::make_unique<Work>();
@@ -201,28 +198,36 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   // Polish between attempts: a trapped attempt often ends next to a feasible plan that the
   // polish reaches (forward preset: 5 of 10 first attempts), and the attempts after it are then
   // not needed. The points polished here are not polished again below.
+  using Polished = std::pair<Eigen::VectorXd, Evaluation>;
   std::vector<Eigen::VectorXd> polished;
-  double between_polish_ms = 0.0;
-  std::optional<std::pair<Eigen::VectorXd, Evaluation>> early;
-  auto polishAttempt = [&](const Eigen::VectorXd& x) {
-    const auto tp = Clock::now();
-    polished.push_back(x);
-    Eigen::VectorXd u_try;
-    int iterations = 0;
-    if (polishWithIpopt(model, x, u_try, &iterations) != PolishOutcome::Failed) {
-      r.polish_iterations += iterations;
-      Evaluation ev;
-      model.evaluate(u_try, ev);
-      if (ev.feasible) early.emplace(u_try, ev);
-    }
-    between_polish_ms += msSince(tp);
-    return early.has_value();
+  auto wasPolished = [&polished](const Eigen::VectorXd& x) {
+    return std::find(polished.begin(), polished.end(), x) != polished.end();
   };
+  // Polishes an attempt's best x (cold iteration limit) and returns the result if it is
+  // feasible; x is not polished again.
+  auto polishToFeasible = [&](const Eigen::VectorXd& x) -> std::optional<Polished> {
+    polished.push_back(x);
+    Eigen::VectorXd u_polished;
+    int iterations = 0;
+    if (polishWithIpopt(model, x, u_polished, &iterations) == PolishOutcome::Failed)
+      return std::nullopt;
+    r.polish_iterations += iterations;
+    Evaluation ev;
+    model.evaluate(u_polished, ev);
+    if (!ev.feasible) return std::nullopt;
+    return Polished{u_polished, ev};
+  };
+  double between_polish_ms = 0.0;
+  std::optional<Polished> early;
   for (int restart = 1;
        !r.de.best.feasible && restart <= settings_.de_restarts && trapped(r.de.best_x); ++restart) {
     if (polish_on && settings_.polish_between_attempts &&
-        !(options.cancel && options.cancel->load()) && polishAttempt(attempt_bests.back().second))
-      break;
+        !(options.cancel && options.cancel->load())) {
+      const auto tp = Clock::now();
+      early = polishToFeasible(attempt_bests.back().second);
+      between_polish_ms += msSince(tp);
+      if (early) break;
+    }
     const bool cut_short = r.de.stop_reason == de::StopReason::Cancelled ||
                            r.de.stop_reason == de::StopReason::TimeBudget;
     const std::int64_t left = total_budget - r.de.evaluations;
@@ -263,22 +268,14 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   r.de_cost = r.de.best.cost;
   r.u = r.de.best_x;
   model.evaluate(r.u, r.evaluation);
-  auto wasPolished = [&polished](const Eigen::VectorXd& x) {
-    return std::find(polished.begin(), polished.end(), x) != polished.end();
-  };
 
   if (early) {
     r.u = early->first;
     r.evaluation = early->second;
     r.polish = PolishOutcome::Improved;
-    r.polish_ms = between_polish_ms;
   }
   r.polish_ms = between_polish_ms;
   const bool do_polish = polish_on && r.evaluation.valid && !early;
-  if (do_polish && wasPolished(r.u)) {
-    // The best attempt was polished between attempts, in vain: only the retries remain.
-    r.polish = PolishOutcome::Rejected;
-  }
   if (do_polish) {
     t0 = Clock::now();
     Eigen::VectorXd u_pol;
@@ -286,23 +283,26 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     // the back-off there; the energy it would still gain is small (docs/planner.md).
     const int max_iterations =
         options.warm_start.cols() > 0 ? settings_.polish_warm_max_iterations : 0;
-    if (!wasPolished(r.u)) {
+    if (wasPolished(r.u)) {
+      // The best attempt was polished between attempts, in vain: only the retries remain.
+      r.polish = PolishOutcome::Rejected;
+    } else {
       int iterations = 0;
       r.polish = polishWithIpopt(model, r.u, u_pol, &iterations, max_iterations);
       r.polish_iterations += iterations;
-    }
-    if (!wasPolished(r.u) && r.polish != PolishOutcome::Failed) {
-      Evaluation ev;
-      model.evaluate(u_pol, ev);
-      // The polish never worsens the result: keep its point only if the cost drops and it is
-      // feasible whenever the DE's point was.
-      const bool better = ev.cost < r.evaluation.cost && (ev.feasible || !r.evaluation.feasible);
-      if (better) {
-        r.u = u_pol;
-        r.evaluation = ev;
-        r.polish = PolishOutcome::Improved;
-      } else {
-        r.polish = PolishOutcome::Rejected;
+      if (r.polish != PolishOutcome::Failed) {
+        Evaluation ev;
+        model.evaluate(u_pol, ev);
+        // The polish never worsens the result: keep its point only if the cost drops and it is
+        // feasible whenever the DE's point was.
+        const bool better = ev.cost < r.evaluation.cost && (ev.feasible || !r.evaluation.feasible);
+        if (better) {
+          r.u = u_pol;
+          r.evaluation = ev;
+          r.polish = PolishOutcome::Improved;
+        } else {
+          r.polish = PolishOutcome::Rejected;
+        }
       }
     }
     // Still infeasible: the other attempts' bests, lowest cost first.
@@ -314,15 +314,9 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
       if (x.size() != r.de.best_x.size() || x == r.de.best_x || wasPolished(x)) continue;
       if (options.cancel && options.cancel->load()) break;
       ++retries;
-      Eigen::VectorXd u_retry;
-      int iterations = 0;
-      if (polishWithIpopt(model, x, u_retry, &iterations) == PolishOutcome::Failed) continue;
-      Evaluation ev;
-      model.evaluate(u_retry, ev);
-      r.polish_iterations += iterations;
-      if (ev.feasible) {
-        r.u = u_retry;
-        r.evaluation = ev;
+      if (const auto p = polishToFeasible(x)) {
+        r.u = p->first;
+        r.evaluation = p->second;
         r.polish = PolishOutcome::Improved;
       }
     }

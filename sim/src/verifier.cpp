@@ -256,13 +256,23 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
   const double slope = scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0;
   r.nominal_base_height_m =
       calcStandingStatics(model_, plan.q_landing, sim_settings.gravity_m_s2).base_height_m;
-  // The end-of-run bounds on the landing, checked at the end or, once they hold, every step.
+  // The landing state in the report's end-of-run fields: at the end of the run, and at every
+  // landing step to find the robot at rest.
+  auto recordFinalState = [&](const GroundTruth& g, double pitch_now) {
+    r.final_time_s = g.t;
+    r.final_base_height_m = calcTerrainDistance(scenario.terrain, g.X_WB.translation());
+    r.final_pitch_rad = pitch_now - slope;
+    r.final_roll_rad = rollOf(g.X_WB.linear());
+    r.final_angular_speed_rad_s = g.w_WB.norm();
+  };
+  // Every end-of-run bound on the landing holds at this step.
   auto at_rest = [&](const GroundTruth& g, double pitch_now) {
-    return std::abs(pitch_now - slope) <= acc.max_final_pitch_rad &&
-           std::abs(rollOf(g.X_WB.linear())) <= acc.max_final_roll_rad &&
-           std::abs(calcTerrainDistance(scenario.terrain, g.X_WB.translation()) -
-                    r.nominal_base_height_m) <= acc.base_height_tolerance_m &&
-           g.w_WB.norm() <= acc.max_final_angular_speed_rad_s && !g.base_in_contact;
+    recordFinalState(g, pitch_now);
+    return std::abs(r.final_pitch_rad) <= acc.max_final_pitch_rad &&
+           std::abs(r.final_roll_rad) <= acc.max_final_roll_rad &&
+           std::abs(r.final_base_height_m - r.nominal_base_height_m) <=
+               acc.base_height_tolerance_m &&
+           r.final_angular_speed_rad_s <= acc.max_final_angular_speed_rad_s && !g.base_in_contact;
   };
   double at_rest_since = kInf;
   for (;;) {
@@ -363,12 +373,7 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
   r.integrator_realizations = robot.integratorStats().realizations;
 
   // Landing state at the end of the run.
-  const Eigen::Matrix3d R_WB = gt.X_WB.linear();
-  r.final_time_s = gt.t;
-  r.final_base_height_m = calcTerrainDistance(scenario.terrain, gt.X_WB.translation());
-  r.final_pitch_rad = pitch - slope;
-  r.final_roll_rad = rollOf(R_WB);
-  r.final_angular_speed_rad_s = gt.w_WB.norm();
+  recordFinalState(gt, pitch);
   r.base_contact = first_base_contact < kInf;
   r.leg_contact = first_leg_contact < kInf;
 

@@ -80,9 +80,10 @@ class JumpModel {
   const Eigen::VectorXd& upperBounds() const { return upper_; }
 
   /// Evaluates candidate u into `ev`. Allocation-free; safe to call concurrently. With a
-  /// finite `cutoff` it stops once the cost is known to exceed it (target errors first, then the
-  /// constraint samples in time order, checked every few samples): ev.cut_off is then set and
-  /// ev.cost is a lower bound > cutoff. The DE passes a trial's parent cost.
+  /// finite `cutoff` it stops once the cost is known to exceed it (the target's position first,
+  /// then the take-off samples, checked after each, the whole target error and the flight
+  /// samples): ev.cut_off is then set and ev.cost is a lower bound > cutoff. The DE passes a
+  /// trial's parent cost.
   void evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation& ev,
                 double cutoff = std::numeric_limits<double>::infinity()) const;
 
