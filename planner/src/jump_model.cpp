@@ -18,6 +18,9 @@ constexpr std::array<double, 14> kPow10 = {1e0, 1e1, 1e2, 1e3,  1e4,  1e5,  1e6,
 // Fixed-point steps for the posture-dependent CoM offset per sample, warm-started from the
 // previous sample (the contraction factor is the legs' mass fraction, ~0.35), plus a final pass.
 constexpr int kCoMIterations = 1;
+// ... and, where a sample must be converged, at most this many, to this step [m].
+constexpr int kCoMMaxIterations = 50;
+constexpr double kCoMTolerance = 1e-12;
 
 // Fixed-capacity polynomial in ascending powers: allocation-free for the DE's hot path.
 struct Poly {
@@ -315,11 +318,11 @@ struct JumpModelAccess {
     Sample smp;
     if (S.two_step) {
       // The front legs hold their t1 posture relative to the body once lifted.
-      contactSample(M, S, S.t1, smp, /*phase2=*/false, M.c0_);
+      contactSample(M, S, S.t1, smp, /*phase2=*/false, M.c0_, /*converge=*/true);
       S.front_b_t1 = M.leg_.forward(smp.front.q);
       S.front_wheel_rate_t1 = smp.front.wheel_rate;
     }
-    contactSample(M, S, S.t2, smp, S.two_step, M.c0_);
+    contactSample(M, S, S.t2, smp, S.two_step, M.c0_, /*converge=*/true);
     S.q_to = {smp.hind.q, smp.front.q};
     S.c_to = smp.c;
     S.qd_to = {smp.hind.qd, smp.front.qd};
@@ -522,8 +525,11 @@ struct JumpModelAccess {
   // Kinematics and statics of both pairs at time t of the take-off. The wheel axles are where
   // the contact model puts them; the base follows from the CoM and the posture-dependent CoM
   // offset c(q), found by a fixed-point iteration warm-started from `c_guess`.
+  // With `converge`, the iteration runs to convergence instead of one warm-started step (the
+  // constraint sweeps, whose consecutive samples are close, take one step; the take-off posture
+  // and the plan's references must not depend on where the iteration started).
   static void contactSample(const JumpModel& M, const Solved& S, double t, Sample& out, bool phase2,
-                            const Eigen::Vector2d& c_guess) {
+                            const Eigen::Vector2d& c_guess, bool converge = false) {
     out.t = t;
     out.t1 = S.t1;
     PlanarState s;
@@ -565,12 +571,14 @@ struct JumpModelAccess {
     if (phase2) pF = M.leg_.inversePose(S.front_b_t1, &F.reach);
     Eigen::Vector2d c = c_guess;
     ComOffset co;
-    for (int it = 0; it < kCoMIterations; ++it) {
+    for (int it = 0; it < (converge ? kCoMMaxIterations : kCoMIterations); ++it) {
       // c(q) needs only the sines and cosines of the joint angles.
       pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach, /*angles=*/false);
       if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach, false);
       co = comOffset(M, pH, pF);
+      const double step = (co.c - c).squaredNorm();
       c = co.c;
+      if (step < kCoMTolerance * kCoMTolerance) break;
     }
     pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach);
     if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach);
@@ -1232,61 +1240,46 @@ Eigen::VectorXd JumpModel::decisionVector(const Eigen::Ref<const Eigen::VectorXd
   return decisionOf(S);
 }
 
-JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
-                              const Evaluation* evaluation) const {
-  Solved S;
-  if (!JumpModelAccess::solve(*this, u, S))
-    throw std::runtime_error("JumpModel::buildPlan: candidate has no valid trajectory");
-  using model::JointKind;
-  using model::Leg;
-  JumpPlan plan;
-  plan.mode = task_.mode;
-  plan.t1 = S.t1;
-  plan.t2 = S.t2;
-  plan.t3 = S.t3;
-  {
-    ForcePhase p1;
-    p1.t_start = 0.0;
-    p1.t_end = S.t1;
-    p1.hind = {toPolynomial(S.fHx1), toPolynomial(S.fHz1)};
-    p1.front = {toPolynomial(S.fFx1), toPolynomial(S.fFz1)};
-    plan.force_phases.push_back(p1);
-    if (S.two_step) {
-      ForcePhase p2;
-      p2.t_start = S.t1;
-      p2.t_end = S.t2;
-      p2.hind = {toPolynomial(S.fHx2), toPolynomial(S.fHz2)};
-      p2.front = {Polynomial{{0.0}}, Polynomial{{0.0}}};
-      plan.force_phases.push_back(p2);
-    }
-  }
-  plan.initial = initial_;
-  plan.q_initial = init_input_.q;
-  plan.q_landing = init_input_.q;
-  for (const Leg leg : model::kLegs) {
-    plan.q_landing[model::jointIndex(leg, JointKind::HFE)] = q_landing_[0];
-    plan.q_landing[model::jointIndex(leg, JointKind::KFE)] = q_landing_[1];
-  }
-  plan.dt = settings_.output_dt_s;
-  const int N = static_cast<int>(std::ceil(S.t3 / plan.dt - 1e-9)) + 1;
-  plan.centroidal.resize(N);
-  plan.q.setZero(N, model::kNumJoints);
-  plan.qd.setZero(N, model::kNumJoints);
-  plan.tau.setZero(N, model::kNumJoints);
+namespace {
+using Joints = Eigen::Matrix<double, model::kNumJoints, 1>;
 
-  Sample smp;
-  Eigen::Vector2d c_guess = c0_;
-  Eigen::Vector2d q_to[2], wheel_to;
-  for (int k = 0; k < N; ++k) {
-    const double t = std::min(k * plan.dt, S.t3);
+// One instant of the references, except the wheel joint angles, which the caller integrates
+// from the wheel rates.
+struct PlanRow {
+  PlanarState s;
+  Joints q = Joints::Zero(), qd = Joints::Zero(), tau = Joints::Zero();
+};
+
+enum class Segment { FourWheels, HindOnly, Flight };
+
+constexpr std::array<int, model::kNumLegs> kWheelJoints = {
+    model::jointIndex(model::Leg::LF, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::RF, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::LH, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::RH, model::JointKind::Wheel)};
+
+Segment segmentAt(const Solved& S, double t) {
+  if (t > S.t2) return Segment::Flight;
+  return S.two_step && t > S.t1 ? Segment::HindOnly : Segment::FourWheels;
+}
+}  // namespace
+
+// The references at time t in `segment` (the segment's own values at its boundaries).
+// `c_guess` warm-starts the contact sample's CoM-offset iteration and is updated.
+struct JumpModelPlanRows {
+  static void row(const JumpModel& M, const Solved& S, double t, Segment segment,
+                  Eigen::Vector2d& c_guess, PlanRow& out) {
+    using model::JointKind;
+    using model::Leg;
     std::array<Eigen::Vector2d, 2> q, qd;
     std::array<double, 2> wheel_rate{}, wheel_tau{}, haa_fz{};
-    PlanarState s;
-    if (t <= S.t2) {
-      const bool phase2 = S.two_step && t > S.t1;
-      JumpModelAccess::contactSample(*this, S, t, smp, phase2, c_guess);
+    out.tau.setZero();
+    if (segment != Segment::Flight) {
+      Sample smp;
+      JumpModelAccess::contactSample(M, S, t, smp, segment == Segment::HindOnly, c_guess,
+                                     /*converge=*/true);
       c_guess = smp.c;
-      s = smp.s;
+      out.s = smp.s;
       int i = 0;
       for (const PairSample* p : {&smp.hind, &smp.front}) {
         q[i] = p->q;
@@ -1300,41 +1293,225 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
         const PairSample& p = pair == 0 ? smp.hind : smp.front;
         for (const Leg leg : model::kLegs) {
           if ((pair == 0) == model::isFront(leg)) continue;
-          plan.tau(k, model::jointIndex(leg, JointKind::HFE)) = p.contact ? p.tau[0] : 0.0;
-          plan.tau(k, model::jointIndex(leg, JointKind::KFE)) = p.contact ? p.tau[1] : 0.0;
+          out.tau[model::jointIndex(leg, JointKind::HFE)] = p.contact ? p.tau[0] : 0.0;
+          out.tau[model::jointIndex(leg, JointKind::KFE)] = p.contact ? p.tau[1] : 0.0;
         }
       }
-      q_to[0] = smp.hind.q;
-      q_to[1] = smp.front.q;
-      wheel_to = Eigen::Vector2d(smp.hind.wheel_rate, smp.front.wheel_rate);
     } else {
-      s = JumpModelAccess::flightState(*this, S, t);
+      out.s = JumpModelAccess::flightState(M, S, t);
       for (int pair = 0; pair < 2; ++pair) {
-        q[pair] = JumpModelAccess::flightPosture(*this, S, S.q_to[pair], t, &qd[pair]);
-        wheel_rate[pair] = JumpModelAccess::flightWheelRate(*this, S, pair, t);
+        q[pair] = JumpModelAccess::flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
+        wheel_rate[pair] = JumpModelAccess::flightWheelRate(M, S, pair, t);
       }
     }
-    plan.centroidal[k] = s;
     for (const Leg leg : model::kLegs) {
       const int pair = model::isFront(leg) ? 1 : 0;
       const int haa = model::jointIndex(leg, JointKind::HAA);
       const double lever =
-          robot_.legGeometry(leg).p_HT.y() + robot_.legGeometry(leg).wheel_lateral_offset;
-      plan.q(k, haa) = init_input_.q[haa];
-      plan.tau(k, haa) = -lever * haa_fz[pair];
-      plan.q(k, haa + 1) = q[pair][0];
-      plan.q(k, haa + 2) = q[pair][1];
-      plan.qd(k, haa + 1) = qd[pair][0];
-      plan.qd(k, haa + 2) = qd[pair][1];
-      plan.qd(k, haa + 3) = wheel_rate[pair];
-      plan.tau(k, haa + 3) = wheel_tau[pair];
-      plan.q(k, haa + 3) =
-          k == 0 ? init_input_.q[haa + 3]
-                 : plan.q(k - 1, haa + 3) + 0.5 * (plan.qd(k - 1, haa + 3) + wheel_rate[pair]) *
-                                                (t - std::min((k - 1) * plan.dt, S.t3));
+          M.robot_.legGeometry(leg).p_HT.y() + M.robot_.legGeometry(leg).wheel_lateral_offset;
+      out.q[haa] = M.init_input_.q[haa];
+      out.qd[haa] = 0.0;
+      out.tau[haa] = -lever * haa_fz[pair];
+      out.q[haa + 1] = q[pair][0];
+      out.q[haa + 2] = q[pair][1];
+      out.qd[haa + 1] = qd[pair][0];
+      out.qd[haa + 2] = qd[pair][1];
+      out.qd[haa + 3] = wheel_rate[pair];
+      out.tau[haa + 3] = wheel_tau[pair];
     }
   }
+};
+
+namespace {
+// The plan's phase times, force polynomials, postures and decision vector: all but the sampled
+// trajectory.
+void fillPlanHeader(const Solved& S, const JumpTask& task, const InitialState& init,
+                    const Eigen::Vector2d& q_landing, const PlanarState& initial, JumpPlan& plan) {
+  using model::JointKind;
+  plan.mode = task.mode;
+  plan.t1 = S.t1;
+  plan.t2 = S.t2;
+  plan.t3 = S.t3;
+  ForcePhase p1;
+  p1.t_start = 0.0;
+  p1.t_end = S.t1;
+  p1.hind = {toPolynomial(S.fHx1), toPolynomial(S.fHz1)};
+  p1.front = {toPolynomial(S.fFx1), toPolynomial(S.fFz1)};
+  plan.force_phases.push_back(p1);
+  if (S.two_step) {
+    ForcePhase p2;
+    p2.t_start = S.t1;
+    p2.t_end = S.t2;
+    p2.hind = {toPolynomial(S.fHx2), toPolynomial(S.fHz2)};
+    p2.front = {Polynomial{{0.0}}, Polynomial{{0.0}}};
+    plan.force_phases.push_back(p2);
+  }
+  plan.initial = initial;
+  plan.q_initial = init.q;
+  plan.q_landing = init.q;
+  for (const model::Leg leg : model::kLegs) {
+    plan.q_landing[model::jointIndex(leg, JointKind::HFE)] = q_landing[0];
+    plan.q_landing[model::jointIndex(leg, JointKind::KFE)] = q_landing[1];
+  }
   plan.decision = decisionOf(S);
+}
+}  // namespace
+
+JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
+                              const Evaluation* evaluation) const {
+  Solved S;
+  if (!JumpModelAccess::solve(*this, u, S))
+    throw std::runtime_error("JumpModel::buildPlan: candidate has no valid trajectory");
+  JumpPlan plan;
+  fillPlanHeader(S, task_, init_input_, q_landing_, initial_, plan);
+  plan.dt = settings_.output_dt_s;
+  const int N = static_cast<int>(std::ceil(S.t3 / plan.dt - 1e-9)) + 1;
+  plan.centroidal.resize(N);
+  plan.q.setZero(N, model::kNumJoints);
+  plan.qd.setZero(N, model::kNumJoints);
+  plan.tau.setZero(N, model::kNumJoints);
+  Eigen::Vector2d c_guess = c0_;
+  PlanRow row;
+  for (int k = 0; k < N; ++k) {
+    const double t = std::min(k * plan.dt, S.t3);
+    JumpModelPlanRows::row(*this, S, t, segmentAt(S, t), c_guess, row);
+    plan.centroidal[k] = row.s;
+    plan.q.row(k) = row.q.transpose();
+    plan.qd.row(k) = row.qd.transpose();
+    plan.tau.row(k) = row.tau.transpose();
+    // Wheel angles: the trapezoid rule over the rates.
+    for (const int w : kWheelJoints)
+      plan.q(k, w) = k == 0 ? init_input_.q[w]
+                            : plan.q(k - 1, w) + 0.5 * (plan.qd(k - 1, w) + plan.qd(k, w)) *
+                                                     (t - std::min((k - 1) * plan.dt, S.t3));
+  }
+  if (evaluation != nullptr && evaluation->valid && !evaluation->cut_off) {
+    plan.predicted = evaluation->predicted;
+  } else {
+    Evaluation ev;
+    evaluate(u, ev);
+    plan.predicted = ev.predicted;
+  }
+  return plan;
+}
+
+JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
+                               const Evaluation* evaluation) const {
+  Solved S;
+  if (!JumpModelAccess::solve(*this, u, S))
+    throw std::runtime_error("JumpModel::buildKnots: candidate has no valid trajectory");
+  JumpPlan plan;
+  fillPlanHeader(S, task_, init_input_, q_landing_, initial_, plan);
+  plan.dt = 0.0;
+  // Phases and, in flight, the corners of the leg motion (tucked, extending, extended), where
+  // the postures' second derivatives jump: a knot sits on each.
+  struct Piece {
+    double a, b;
+    Segment segment;
+  };
+  std::vector<Piece> pieces;
+  if (S.two_step) {
+    pieces.push_back({0.0, S.t1, Segment::FourWheels});
+    pieces.push_back({S.t1, S.t2, Segment::HindOnly});
+  } else {
+    pieces.push_back({0.0, S.t2, Segment::FourWheels});
+  }
+  double a = S.t2;
+  for (const double f : {settings_.tuck_end_fraction, settings_.extend_start_fraction,
+                         settings_.extend_end_fraction, 1.0}) {
+    const double b = std::min(S.t2 + f * S.Tf, S.t3);
+    if (b > a + 1e-9 || f == 1.0) pieces.push_back({a, f == 1.0 ? S.t3 : b, Segment::Flight});
+    a = std::max(a, b);
+  }
+  // Each piece starts with even knots at most knot_dt_s apart. An interval is then halved
+  // while the references at its midpoint differ from what densify() makes of its two knots by
+  // more than the tolerances below (the legs move fast as they straighten at the end of the
+  // push), down to output_dt_s. The midpoint rows also give the wheel angles (Simpson).
+  constexpr double kQTol = 5e-4;    // joint position [rad]
+  constexpr double kQdTol = 0.05;   // joint velocity [rad/s]
+  constexpr double kTauTol = 0.25;  // torque, against the chord [Nm]
+  struct Knot {
+    double t;
+    Segment segment;
+    PlanRow row;
+    Eigen::Vector4d wheel_mid_rate = Eigen::Vector4d::Zero();  // of the interval ending here
+  };
+  std::vector<Knot> knots;
+  Eigen::Vector2d c_guess = c0_;
+  const double min_dt = settings_.output_dt_s;
+  auto accurate = [](const Knot& a, const Knot& m, const Knot& b) {
+    const double h = b.t - a.t;
+    for (int j = 0; j < model::kNumJoints; ++j) {
+      if (model::isWheel(j)) continue;
+      const double q0 = a.row.q[j], q1 = b.row.q[j], m0 = a.row.qd[j], m1 = b.row.qd[j];
+      // Cubic Hermite at s = 1/2: value and derivative.
+      const double q_mid = 0.5 * (q0 + q1) + h / 8.0 * (m0 - m1);
+      const double qd_mid = 1.5 * (q1 - q0) / h - 0.25 * (m0 + m1);
+      if (std::abs(q_mid - m.row.q[j]) > kQTol || std::abs(qd_mid - m.row.qd[j]) > kQdTol ||
+          std::abs(0.5 * (a.row.tau[j] + b.row.tau[j]) - m.row.tau[j]) > kTauTol)
+        return false;
+    }
+    return true;
+  };
+  auto refine = [&](auto&& self, const Knot& a, const Knot& b) -> void {
+    Knot m{0.5 * (a.t + b.t), a.segment, {}, {}};
+    Eigen::Vector2d c_mid = c_guess;
+    JumpModelPlanRows::row(*this, S, m.t, m.segment, c_mid, m.row);
+    if (b.t - a.t > 2.0 * min_dt && !accurate(a, m, b)) {
+      self(self, a, m);
+      self(self, m, b);
+      return;
+    }
+    Knot accepted = b;
+    for (int i = 0; i < 4; ++i) accepted.wheel_mid_rate[i] = m.row.qd[kWheelJoints[i]];
+    knots.push_back(accepted);
+  };
+  const double h_max = settings_.knot_dt_s;
+  for (std::size_t i = 0; i < pieces.size(); ++i) {
+    const Piece& p = pieces[i];
+    const int n = std::max(1, static_cast<int>(std::ceil((p.b - p.a) / h_max - 1e-9)));
+    // A flight piece continues the one before it: its first knot is that piece's last.
+    const bool continues =
+        i > 0 && p.segment == Segment::Flight && pieces[i - 1].segment == Segment::Flight;
+    Knot prev{p.a, p.segment, {}, {}};
+    if (continues) {
+      prev = knots.back();
+    } else {
+      JumpModelPlanRows::row(*this, S, p.a, p.segment, c_guess, prev.row);
+      knots.push_back(prev);
+    }
+    for (int k = 1; k <= n; ++k) {
+      Knot next{k == n ? p.b : p.a + (p.b - p.a) * k / n, p.segment, {}, {}};
+      JumpModelPlanRows::row(*this, S, next.t, next.segment, c_guess, next.row);
+      refine(refine, prev, next);
+      prev = next;
+    }
+  }
+  PlanKnots& K = plan.knots;
+  const int count = static_cast<int>(knots.size());
+  K.t.resize(count);
+  K.centroidal.resize(count);
+  K.q.setZero(count, model::kNumJoints);
+  K.qd.setZero(count, model::kNumJoints);
+  K.tau.setZero(count, model::kNumJoints);
+  for (int k = 0; k < count; ++k) {
+    const Knot& kn = knots[k];
+    K.t[k] = kn.t;
+    K.centroidal[k] = kn.row.s;
+    K.q.row(k) = kn.row.q.transpose();
+    K.qd.row(k) = kn.row.qd.transpose();
+    K.tau.row(k) = kn.row.tau.transpose();
+    // Wheel angles: Simpson's rule over the rates of each interval, continuous across a phase
+    // boundary.
+    for (int i = 0; i < 4; ++i) {
+      const int w = kWheelJoints[i];
+      const double h = k == 0 ? 0.0 : kn.t - knots[k - 1].t;
+      K.q(k, w) = k == 0 || h <= 0.0
+                      ? (k == 0 ? init_input_.q[w] : K.q(k - 1, w))
+                      : K.q(k - 1, w) +
+                            h / 6.0 * (K.qd(k - 1, w) + 4.0 * kn.wheel_mid_rate[i] + kn.row.qd[w]);
+    }
+  }
   if (evaluation != nullptr && evaluation->valid && !evaluation->cut_off) {
     plan.predicted = evaluation->predicted;
   } else {

@@ -113,6 +113,8 @@ void PlannerSettings::validate() const {
         samples_flight);
   check(output_dt_s > 0 && output_dt_s <= 0.002, "sampling.output_dt_s", "in (0, 0.002]",
         output_dt_s);
+  check(knot_dt_s >= 0.002 && knot_dt_s <= 0.1, "sampling.knot_dt_s", "in [0.002, 0.1] s",
+        knot_dt_s);
   check(t1_s[0] > 0.01, "bounds.t1_s[0]", "> 0.01 s", t1_s[0]);
   check(t2_minus_t1_s[0] > 0.01, "bounds.t2_minus_t1_s[0]", "> 0.01 s", t2_minus_t1_s[0]);
   check(takeoff_vz_m_s[0] > 0, "bounds.takeoff_vz_m_s[0]", "> 0 (the robot must leave the ground)",
@@ -248,7 +250,8 @@ PlannerSettings parse(const YAML::Node& root) {
                      {{"samples_phase1", integer(s.samples_phase1)},
                       {"samples_phase2", integer(s.samples_phase2)},
                       {"samples_flight", integer(s.samples_flight)},
-                      {"output_dt_s", number(s.output_dt_s)}});
+                      {"output_dt_s", number(s.output_dt_s)},
+                      {"knot_dt_s", number(s.knot_dt_s)}});
        }},
       {"bounds",
        [&](const YAML::Node& n) {

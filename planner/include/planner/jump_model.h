@@ -110,6 +110,11 @@ class JumpModel {
   /// used instead of evaluating u again (a cache hit has just evaluated it).
   JumpPlan buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
                      const Evaluation* evaluation = nullptr) const;
+  /// The same plan with its trajectory as knots (JumpPlan::knots, `sampling.knot_dt_s` apart
+  /// at most, on every phase boundary and flight-posture corner) instead of dense samples:
+  /// what the contract's TRAJECTORY_FORMAT_KNOTS sends. densify() turns it into a dense plan.
+  JumpPlan buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
+                      const Evaluation* evaluation = nullptr) const;
 
   /// CoM state at t = 0 (x = 0).
   const PlanarState& initialState() const { return initial_; }
@@ -134,6 +139,7 @@ class JumpModel {
 
  private:
   friend struct JumpModelAccess;
+  friend struct JumpModelPlanRows;
   struct Geometry {
     Eigen::Vector2d hfe_b = Eigen::Vector2d::Zero();  ///< HFE axis in the base frame, x-z [m]
     double haa_lever = 0.0;  ///< lateral offset HAA axis -> wheel plane, left leg [m]

@@ -68,6 +68,20 @@ struct ForcePhase {
   PairForce front;  ///< zero once the front pair has lifted
 };
 
+/// The trajectory as knots of piecewise cubics (the contract's TrajectoryKnots). Every contact
+/// phase and the flight has its own knots, so a phase boundary appears twice: first with the
+/// values of the phase that ends, then with those of the phase that starts. densify() says
+/// how the values between knots follow.
+struct PlanKnots {
+  std::vector<double> t;                ///< K knot times [s], non-decreasing, 0 to t3
+  std::vector<PlanarState> centroidal;  ///< K CoM states
+  Eigen::MatrixXd q;                    ///< K x 16 joint positions [rad]
+  Eigen::MatrixXd qd;                   ///< K x 16 joint velocities [rad/s]
+  Eigen::MatrixXd tau;                  ///< K x 16 feedforward torques [Nm]; zero in flight
+
+  int size() const { return static_cast<int>(t.size()); }
+};
+
 /// A complete jump plan, sampled densely for execution.
 struct JumpPlan {
   TakeoffMode mode = TakeoffMode::Simultaneous;
@@ -92,6 +106,9 @@ struct JumpPlan {
   Eigen::MatrixXd q;    ///< N x 16 joint positions [rad]
   Eigen::MatrixXd qd;   ///< N x 16 joint velocities [rad/s]
   Eigen::MatrixXd tau;  ///< N x 16 feedforward torques [Nm]; zero in flight
+
+  /// The trajectory as knots (JumpModel::buildKnots); empty in a dense plan.
+  PlanKnots knots;
 
   /// The optimizer's decision vector D = [s(t1/2), s(t2), s(t3), t1, t2, t3], s = (x, z, pitch).
   Eigen::VectorXd decision;

@@ -56,6 +56,7 @@ struct PlannerSettings {
   int samples_phase2 = 16;     ///< constraint samples on [t1, t2]
   int samples_flight = 24;     ///< obstacle/body/attitude samples on [t2, t3], <= 256
   double output_dt_s = 0.001;  ///< sample period of the returned references (<= 0.002)
+  double knot_dt_s = 0.02;     ///< largest knot spacing of a plan sent as knots [s]
 
   // --- search box of the decision variables (relative to the initial state where noted)
   std::array<double, 2> t1_s = {0.08, 0.6};            ///< four-wheel push duration
