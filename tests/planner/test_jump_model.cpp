@@ -678,7 +678,7 @@ TEST(PlannerSettings, YamlFailsOnUnknownKeysAndNamesThem) {
 }
 
 TEST(PlannerSettings, PolishSolverIsReadAndCheckedByName) {
-  EXPECT_EQ(PlannerSettings().polish_solver, PolishSolver::Sqp);
+  EXPECT_EQ(PlannerSettings().polish_solver, PolishSolver::Ipopt);
   EXPECT_EQ(PlannerSettings::fromYamlString("polish: {solver: ipopt}\n").polish_solver,
             PolishSolver::Ipopt);
   EXPECT_EQ(PlannerSettings::fromYamlString("polish: {solver: sqp}\n").polish_solver,
