@@ -4,7 +4,11 @@
 //  - the feasibility rate over a grid of run-up speeds (v0 = 0..3 m/s step 0.25, 10 seeds);
 //  - pagmo2's de and sade on the same objective with the same evaluation budget and seeds:
 //    time to the first feasible candidate and final cost, against our DE.
-// Usage: bench_planner [--quick] [--only cold|warm|grid|pagmo|backflip] > result.json
+//  - polish_ab: the polish solvers (polish.solver sqp, ipopt) A/B, interleaved seed by seed: cold
+//    solves at 2 threads, and each solver's polish alone from the same DE point (DE without
+//    polish).
+// Usage: bench_planner [--quick] [--only cold|warm|grid|pagmo|backflip|polish_ab]
+//                      [--polish-solver sqp|ipopt] > result.json
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -97,27 +101,42 @@ json runPagmo(const std::string& algo, const JumpPlanner& planner, const Scenari
 int main(int argc, char** argv) {
   bool quick = false;
   std::string only;
+  PolishSolver solver = PlannerSettings{}.polish_solver;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
     } else if (std::strcmp(argv[i], "--only") == 0 && i + 1 < argc) {
       only = argv[++i];
       if (only != "cold" && only != "warm" && only != "grid" && only != "pagmo" &&
-          only != "backflip") {
-        std::cerr << "bench_planner: --only takes cold, warm, grid, pagmo or backflip, got '"
+          only != "backflip" && only != "polish_ab") {
+        std::cerr << "bench_planner: --only takes cold, warm, grid, pagmo, backflip or polish_ab, "
+                     "got '"
                   << only << "'\n";
         return 2;
       }
+    } else if (std::strcmp(argv[i], "--polish-solver") == 0 && i + 1 < argc) {
+      const std::string name = argv[++i];
+      if (name != "sqp" && name != "ipopt") {
+        std::cerr << "bench_planner: --polish-solver takes sqp or ipopt, got '" << name << "'\n";
+        return 2;
+      }
+      solver = name == "sqp" ? PolishSolver::Sqp : PolishSolver::Ipopt;
     } else {
-      std::cerr << "usage: bench_planner [--quick] [--only cold|warm|grid|pagmo|backflip]\n";
+      std::cerr << "usage: bench_planner [--quick] "
+                   "[--only cold|warm|grid|pagmo|backflip|polish_ab] [--polish-solver sqp|ipopt]\n";
       return 2;
     }
   }
-  auto part = [&only](const char* name) { return only.empty() || only == name; };
+  auto part = [&only](const char* name) {
+    return only == name || (only.empty() && std::strcmp(name, "polish_ab") != 0);
+  };
   const int runs = quick ? 3 : 10;
   const int grid_seeds = quick ? 3 : 10;
-  const JumpPlanner planner(wj::model::RobotModel::loadDefault(), PlannerSettings{});
+  PlannerSettings settings;
+  settings.polish_solver = solver;
+  const JumpPlanner planner(wj::model::RobotModel::loadDefault(), settings);
   json out;
+  out["polish_solver"] = toString(solver);
   out["machine_threads"] = static_cast<int>(std::thread::hardware_concurrency());
   // libgomp reads it at start-up: spinning (the default) or sleeping at the DE's barriers.
   const char* wait_policy = std::getenv("OMP_WAIT_POLICY");
@@ -146,6 +165,80 @@ int main(int argc, char** argv) {
           {"max_ms", *std::max_element(total.begin(), total.end())},
           {"feasible", feasible},
           {"runs", runs}};
+    }
+  }
+
+  // 1b. The polish solvers A/B (2 threads), interleaved seed by seed (the order alternates) so
+  // that a machine shared with other work loads both alike.
+  if (part("polish_ab")) {
+    const PolishSolver solvers[2] = {PolishSolver::Sqp, PolishSolver::Ipopt};
+    std::vector<JumpPlanner> planners;
+    for (const PolishSolver ps : solvers) {
+      PlannerSettings s = planner.settings();
+      s.polish_solver = ps;
+      planners.emplace_back(planner.robot(), s);
+    }
+    for (const auto& name : presetNames()) {
+      const Scenario sc = makePreset(planner, name);
+      struct Stats {
+        std::vector<double> total, de_ms, polish_ms, cost, iterations, alone_ms, alone_cost,
+            alone_iterations;
+        int feasible = 0, improved = 0, alone_improved = 0, alone_feasible = 0;
+      } st[2];
+      for (int seed = 1; seed <= runs; ++seed) {
+        PlanOptions o;
+        o.seed = static_cast<std::uint64_t>(seed);
+        o.threads = 2;
+        for (int k = 0; k < 2; ++k) {
+          const int j = (seed + k) % 2;
+          const PlannerResult r = planners[j].plan(sc.task, sc.initial, o);
+          st[j].total.push_back(r.total_ms);
+          st[j].de_ms.push_back(r.de_ms);
+          st[j].polish_ms.push_back(r.polish_ms);
+          st[j].cost.push_back(r.final_cost);
+          st[j].iterations.push_back(r.polish_iterations);
+          st[j].feasible += r.evaluation.feasible;
+          st[j].improved += r.polish == PolishOutcome::Improved;
+        }
+        // The polish alone, from the DE's best without any polish (same point for both).
+        PlanOptions no_polish = o;
+        no_polish.polish = false;
+        const PlannerResult de_only = planner.plan(sc.task, sc.initial, no_polish);
+        const JumpModel model(planner.robot(), planner.settings(), sc.task, sc.initial);
+        for (int k = 0; k < 2; ++k) {
+          const int j = (seed + k) % 2;
+          const JumpModel mj(planner.robot(), planners[j].settings(), sc.task, sc.initial);
+          Eigen::VectorXd u;
+          int iterations = 0;
+          const auto t = Clock::now();
+          const PolishOutcome out_j = polishCandidate(mj, de_only.u, u, &iterations);
+          st[j].alone_ms.push_back(
+              std::chrono::duration<double, std::milli>(Clock::now() - t).count());
+          st[j].alone_iterations.push_back(iterations);
+          Evaluation ev;
+          model.evaluate(u, ev);
+          const bool better = out_j != PolishOutcome::Failed && ev.cost < de_only.evaluation.cost &&
+                              (ev.feasible || !de_only.evaluation.feasible);
+          st[j].alone_improved += better;
+          st[j].alone_feasible += better ? ev.feasible : de_only.evaluation.feasible;
+          st[j].alone_cost.push_back(better ? ev.cost : de_only.evaluation.cost);
+        }
+      }
+      for (int j = 0; j < 2; ++j)
+        out["polish_ab"][name][toString(solvers[j])] = {
+            {"median_ms", median(st[j].total)},
+            {"median_de_ms", median(st[j].de_ms)},
+            {"median_polish_ms", median(st[j].polish_ms)},
+            {"median_final_cost", median(st[j].cost)},
+            {"median_polish_iterations", median(st[j].iterations)},
+            {"feasible", st[j].feasible},
+            {"polish_improved", st[j].improved},
+            {"polish_alone_median_ms", median(st[j].alone_ms)},
+            {"polish_alone_median_iterations", median(st[j].alone_iterations)},
+            {"polish_alone_median_cost", median(st[j].alone_cost)},
+            {"polish_alone_improved", st[j].alone_improved},
+            {"polish_alone_feasible", st[j].alone_feasible},
+            {"runs", runs}};
     }
   }
 

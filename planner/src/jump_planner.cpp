@@ -209,7 +209,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     polished.push_back(x);
     Eigen::VectorXd u_polished;
     int iterations = 0;
-    if (polishWithIpopt(model, x, u_polished, &iterations) == PolishOutcome::Failed)
+    if (polishCandidate(model, x, u_polished, &iterations) == PolishOutcome::Failed)
       return std::nullopt;
     r.polish_iterations += iterations;
     Evaluation ev;
@@ -288,7 +288,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
       r.polish = PolishOutcome::Rejected;
     } else {
       int iterations = 0;
-      r.polish = polishWithIpopt(model, r.u, u_pol, &iterations, max_iterations);
+      r.polish = polishCandidate(model, r.u, u_pol, &iterations, max_iterations);
       r.polish_iterations += iterations;
       if (r.polish != PolishOutcome::Failed) {
         Evaluation ev;

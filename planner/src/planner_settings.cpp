@@ -10,6 +10,16 @@
 
 namespace wj::planner {
 
+const char* toString(PolishSolver s) {
+  switch (s) {
+    case PolishSolver::Sqp:
+      return "sqp";
+    case PolishSolver::Ipopt:
+      return "ipopt";
+  }
+  return "?";
+}
+
 const char* toString(ConstraintClass c) {
   switch (c) {
     case ConstraintClass::NormalForce:
@@ -152,6 +162,9 @@ void PlannerSettings::validate() const {
   check(polish_retries >= 0 && polish_retries <= 16, "polish.retries", "in [0, 16]",
         polish_retries);
   check(polish_stall_iterations >= 0, "polish.stall_iterations", ">= 0", polish_stall_iterations);
+  if (polish_solver != PolishSolver::Sqp && polish_solver != PolishSolver::Ipopt)
+    throw std::invalid_argument("planner settings: polish.solver must be one of sqp, ipopt, got " +
+                                std::to_string(static_cast<int>(polish_solver)));
   check(warm_start_cloud >= 0 && warm_start_cloud <= 1000, "de.warm_start_cloud", "in [0, 1000]",
         warm_start_cloud);
   check(warm_start_spread >= 0 && warm_start_spread <= 0.5, "de.warm_start_spread", "in [0, 0.5]",
@@ -326,16 +339,20 @@ PlannerSettings parse(const YAML::Node& root) {
        }},
       {"polish",
        [&](const YAML::Node& n) {
-         readSection(n, "polish",
-                     {{"enabled", [&](const YAML::Node& v) { s.polish = v.as<bool>(); }},
-                      {"max_iterations", integer(s.polish_max_iterations)},
-                      {"warm_max_iterations", integer(s.polish_warm_max_iterations)},
-                      {"tolerance", number(s.polish_tolerance)},
-                      {"retries", integer(s.polish_retries)},
-                      {"between_attempts",
-                       [&](const YAML::Node& v) { s.polish_between_attempts = v.as<bool>(); }},
-                      {"stall_iterations", integer(s.polish_stall_iterations)},
-                      {"backoff", number(s.polish_backoff)}});
+         readSection(
+             n, "polish",
+             {{"enabled", [&](const YAML::Node& v) { s.polish = v.as<bool>(); }},
+              {"solver", choice(s.polish_solver,
+                                std::map<std::string, PolishSolver>{
+                                    {"sqp", PolishSolver::Sqp}, {"ipopt", PolishSolver::Ipopt}})},
+              {"max_iterations", integer(s.polish_max_iterations)},
+              {"warm_max_iterations", integer(s.polish_warm_max_iterations)},
+              {"tolerance", number(s.polish_tolerance)},
+              {"retries", integer(s.polish_retries)},
+              {"between_attempts",
+               [&](const YAML::Node& v) { s.polish_between_attempts = v.as<bool>(); }},
+              {"stall_iterations", integer(s.polish_stall_iterations)},
+              {"backoff", number(s.polish_backoff)}});
        }},
   };
   readSection(root, "", top);

@@ -542,21 +542,69 @@ TEST(JumpPlanner, PolishBetweenAttemptsStopsAtTheFirstFeasiblePolish) {
   EXPECT_LT(b.de.evaluations, a.de.evaluations);
 }
 
+PlannerSettings withPolishSolver(PolishSolver solver) {
+  PlannerSettings s;
+  s.polish_solver = solver;
+  return s;
+}
+
 TEST(JumpPlanner, PolishNeverWorsensTheCost) {
-  const JumpPlanner planner = makePlanner();
-  for (const auto& name : presetNames()) {
-    const Scenario sc = makePreset(planner, name);
+  for (const PolishSolver solver : {PolishSolver::Sqp, PolishSolver::Ipopt}) {
+    const JumpPlanner planner = makePlanner(withPolishSolver(solver));
+    for (const auto& name : presetNames()) {
+      const Scenario sc = makePreset(planner, name);
+      PlanOptions o;
+      o.max_evaluations = 2000;  // a rough DE result leaves room for the polish
+      const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+      EXPECT_LE(r.final_cost, r.de_cost) << name << ' ' << toString(solver);
+      EXPECT_NE(r.polish, PolishOutcome::NotRun) << name << ' ' << toString(solver);
+    }
+  }
+}
+
+TEST(JumpPlanner, PolishSameSeedSamePlanWithEitherSolver) {
+  for (const PolishSolver solver : {PolishSolver::Sqp, PolishSolver::Ipopt}) {
+    const JumpPlanner planner = makePlanner(withPolishSolver(solver));
+    const Scenario sc = makePreset(planner, "forward_hw");
     PlanOptions o;
-    o.max_evaluations = 2000;  // a rough DE result leaves room for the polish
-    const PlannerResult r = planner.plan(sc.task, sc.initial, o);
-    EXPECT_LE(r.final_cost, r.de_cost) << name;
-    EXPECT_NE(r.polish, PolishOutcome::NotRun) << name;
+    o.seed = 5;
+    const PlannerResult a = planner.plan(sc.task, sc.initial, o);
+    const PlannerResult b = planner.plan(sc.task, sc.initial, o);
+    EXPECT_EQ(a.u, b.u) << toString(solver);
+    EXPECT_EQ(a.polish_iterations, b.polish_iterations) << toString(solver);
+    EXPECT_EQ(a.polish, b.polish) << toString(solver);
+  }
+}
+
+TEST(JumpPlanner, PolishMeetsTheTargetWhenFeasibleWithEitherSolver) {
+  // forward_hw is feasible on every seed. The solvers return the best point that met the
+  // polish's constraints to 1e-6, or else their last iterate, which the planner keeps if the
+  // full evaluation finds it feasible and cheaper: the target errors stay far inside the cost
+  // tolerances (5 cm, 0.25 rad) either way.
+  for (const PolishSolver solver : {PolishSolver::Sqp, PolishSolver::Ipopt}) {
+    const JumpPlanner planner = makePlanner(withPolishSolver(solver));
+    const Scenario sc = makePreset(planner, "forward_hw");
+    int improved = 0;
+    for (const std::uint64_t seed : {1u, 2u, 3u}) {
+      PlanOptions o;
+      o.seed = seed;
+      const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+      ASSERT_TRUE(r.evaluation.feasible)
+          << toString(solver) << " seed " << seed << ' ' << r.summary;
+      EXPECT_NE(r.polish, PolishOutcome::Failed) << toString(solver) << " seed " << seed;
+      EXPECT_LE(r.final_cost, r.de_cost);
+      if (r.polish != PolishOutcome::Improved) continue;  // the DE's plan is kept as it was
+      ++improved;
+      EXPECT_LT(std::abs(r.evaluation.err_dx), 1e-3) << toString(solver) << " seed " << seed;
+      EXPECT_LT(std::abs(r.evaluation.err_pitch), 1e-3) << toString(solver) << " seed " << seed;
+    }
+    EXPECT_GE(improved, 2) << toString(solver);
   }
 }
 
 TEST(JumpPlanner, PolishIgnoresAnIpoptOptionsFileInTheWorkingDirectory) {
   // Ipopt reads ./ipopt.opt by default; the planner's settings alone must decide the plan.
-  const JumpPlanner planner = makePlanner();
+  const JumpPlanner planner = makePlanner(withPolishSolver(PolishSolver::Ipopt));
   const Scenario sc = makePreset(planner, "forward_hw");
   PlanOptions o;
   o.seed = 3;
@@ -627,6 +675,25 @@ TEST(PlannerSettings, YamlFailsOnUnknownKeysAndNamesThem) {
                std::runtime_error);
   EXPECT_THROW((void)PlannerSettings::fromYamlString("physics: {friction_mu: -1}\n"),
                std::runtime_error);
+}
+
+TEST(PlannerSettings, PolishSolverIsReadAndCheckedByName) {
+  EXPECT_EQ(PlannerSettings().polish_solver, PolishSolver::Ipopt);
+  EXPECT_EQ(PlannerSettings::fromYamlString("polish: {solver: ipopt}\n").polish_solver,
+            PolishSolver::Ipopt);
+  EXPECT_EQ(PlannerSettings::fromYamlString("polish: {solver: sqp}\n").polish_solver,
+            PolishSolver::Sqp);
+  try {
+    (void)PlannerSettings::fromYamlString("polish: {solver: snopt}\n");
+    FAIL();
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("polish.solver"), std::string::npos) << what;
+    EXPECT_NE(what.find("ipopt, sqp"), std::string::npos) << what;
+  }
+  PlannerSettings s;
+  s.polish_solver = static_cast<PolishSolver>(7);
+  EXPECT_THROW(s.validate(), std::invalid_argument);
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 #pragma once
-/// @file The jump planner: Differential Evolution over the planar jump model, then an Ipopt
-/// polish with hard constraints and the target as an equality.
+/// @file The jump planner: Differential Evolution over the planar jump model, then a gradient
+/// polish (dense SQP or Ipopt) with hard constraints and the target as an equality.
 
 #include <Eigen/Core>
 #include <atomic>
@@ -23,7 +23,7 @@ struct PlanOptions {
   std::optional<std::int64_t> max_evaluations;  ///< DE evaluation budget
   std::optional<double> time_budget_s;          ///< DE wall-time budget
   std::optional<int> threads;                   ///< DE evaluation threads
-  std::optional<bool> polish;                   ///< run the Ipopt polish
+  std::optional<bool> polish;                   ///< run the polish
   /// Warm-start candidates in the search space u (kNumDecision x k), e.g. from the cache.
   Eigen::MatrixXd warm_start;
   /// How many distinct candidates to return for verification (best first), >= 1.
@@ -35,8 +35,8 @@ struct PlanOptions {
 enum class PolishOutcome {
   NotRun,    ///< disabled, or nothing to polish
   Improved,  ///< accepted: lower cost than the DE's best
-  Rejected,  ///< Ipopt ended, but its point was not better; the DE's best is kept
-  Failed,    ///< Ipopt reported an error; the DE's best is kept
+  Rejected,  ///< the solver ended, but its point was not better; the DE's best is kept
+  Failed,    ///< the solver reported an error; the DE's best is kept
 };
 const char* toString(PolishOutcome o);
 
@@ -97,10 +97,18 @@ std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev);
 /// One sentence on an evaluation and its binding classes (PlannerResult::summary).
 std::string summarizeEvaluation(const Evaluation& ev, const std::vector<ConstraintClass>& binding);
 
-/// Ipopt polish of candidate u0 on `model`: minimises the take-off energy subject to every
+/// Polish of candidate u0 on `model`: minimises the take-off energy subject to every
 /// sampled constraint (>= polish.backoff) and the target errors (= 0), in at most
-/// `max_iterations` (0: polish.max_iterations). Returns the polished point in `u`.
+/// `max_iterations` (0: polish.max_iterations), with the solver of `polish.solver`. Returns the
+/// polished point in `u` (the best point meeting the constraints, else the last iterate); the
+/// caller accepts it only after a full evaluation. Failed: no value at u0 or a solver error.
+PolishOutcome polishCandidate(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
+                              int* iterations, int max_iterations = 0);
+/// The polish by Ipopt 3.11 + MUMPS (polish.solver: ipopt).
 PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
                               int* iterations, int max_iterations = 0);
+/// The polish by the dense SQP solver of the planner (polish.solver: sqp).
+PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
+                            int* iterations, int max_iterations = 0);
 
 }  // namespace wj::planner

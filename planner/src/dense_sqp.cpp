@@ -1,0 +1,520 @@
+// Dense Sl1QP solver for small NLPs (see dense_sqp.h for the references).
+#include "dense_sqp.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace wj::planner {
+
+const char* toString(SqpStatus s) {
+  switch (s) {
+    case SqpStatus::Converged:
+      return "converged";
+    case SqpStatus::Stalled:
+      return "stalled";
+    case SqpStatus::MaxIterations:
+      return "max_iterations";
+    case SqpStatus::SmallStep:
+      return "small_step";
+    case SqpStatus::LineSearchFailed:
+      return "line_search_failed";
+    case SqpStatus::EvaluationFailed:
+      return "evaluation_failed";
+    case SqpStatus::QpFailed:
+      return "qp_failed";
+  }
+  return "?";
+}
+
+namespace {
+
+bool finite(double bound) {
+  return std::abs(bound) < kSqpInfinity;
+}
+
+// The QP of one SQP iteration, in inequality form:
+//   min 1/2 d'Bd + g'd + sum_i rho_i s_i   s.t.  a_i'd + s_i >= b_i,  s_i >= 0,
+// where s_i is present (an elastic row) only where rho_i > 0 (the linearised constraints; the
+// variable bounds are hard rows, met by d = 0). Primal-dual interior point with Mehrotra's
+// predictor-corrector (Nocedal & Wright 2006, Algorithm 16.4) on
+//   B d + g - A'z = 0,  rho - z - y = 0 (elastic rows),  A d + s - b - w = 0,
+//   w.z = mu,  s.y = mu,
+// with slacks w, s and multipliers z, y all > 0. The slacks and multipliers are eliminated
+// row by row, which leaves one n x n system (B + A' D^-1 A) dd = r per solve (D diagonal).
+class DenseQp {
+ public:
+  void resize(int n, int rows) {
+    n_ = n;
+    rows_ = rows;
+    for (Eigen::VectorXd* v : {&w_, &z_, &s_, &y_, &rp_, &rs_, &D_, &h_, &rcw_, &rcs_, &dw_, &dz_,
+                               &ds_, &dy_, &dwa_, &dza_, &dsa_, &dya_, &tmp_rows_})
+      v->resize(rows);
+    for (Eigen::VectorXd* v : {&d_, &rd_, &dd_, &rhs_}) v->resize(n);
+    M_.resize(n, n);
+    AD_.resize(rows, n);
+    llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
+  }
+
+  // Solves the QP; false if the Newton matrix cannot be factorised. The result is usable when
+  // the iteration limit ends the solve first (the SQP's line search judges it).
+  bool solve(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, const Eigen::MatrixXd& A,
+             const Eigen::VectorXd& b, const Eigen::VectorXd& rho, int max_iterations) {
+    d_.setZero();
+    for (int i = 0; i < rows_; ++i) {
+      const double r0 = -b[i];  // a_i'd - b_i at d = 0
+      if (rho[i] > 0) {
+        s_[i] = std::max(1.0, 1.0 - r0);
+        w_[i] = r0 + s_[i];
+        z_[i] = std::min(1.0, 0.5 * rho[i]);
+        y_[i] = rho[i] - z_[i];
+      } else {
+        s_[i] = 0.0;
+        y_[i] = 0.0;
+        w_[i] = std::max(1.0, r0);
+        z_[i] = 1.0;
+      }
+    }
+    int count = rows_;
+    for (int i = 0; i < rows_; ++i) count += rho[i] > 0 ? 1 : 0;
+    const double scale = 1.0 + std::max(g.lpNorm<Eigen::Infinity>(), b.lpNorm<Eigen::Infinity>());
+    for (int it = 0; it < max_iterations; ++it) {
+      rd_.noalias() = B * d_;
+      rd_ += g;
+      rd_.noalias() -= A.transpose() * z_;
+      rp_.noalias() = A * d_;
+      double mu = 0.0;
+      for (int i = 0; i < rows_; ++i) {
+        const bool el = rho[i] > 0;
+        rp_[i] += (el ? s_[i] : 0.0) - b[i] - w_[i];
+        rs_[i] = el ? rho[i] - z_[i] - y_[i] : 0.0;
+        mu += w_[i] * z_[i] + (el ? s_[i] * y_[i] : 0.0);
+      }
+      mu /= std::max(1, count);
+      if (rd_.lpNorm<Eigen::Infinity>() <= 1e-10 * scale &&
+          rp_.lpNorm<Eigen::Infinity>() <= 1e-10 * scale &&
+          rs_.lpNorm<Eigen::Infinity>() <= 1e-10 * scale && mu <= 1e-12 * scale)
+        break;
+      // The Newton matrix (shared by the predictor and the corrector).
+      for (int i = 0; i < rows_; ++i) {
+        D_[i] = w_[i] / z_[i] + (rho[i] > 0 ? s_[i] / y_[i] : 0.0);
+        AD_.row(i) = A.row(i) / D_[i];
+      }
+      M_ = B;
+      M_.noalias() += AD_.transpose() * A;
+      llt_.compute(M_);
+      if (llt_.info() != Eigen::Success) {
+        M_.diagonal().array() += 1e-10 * (1.0 + M_.diagonal().cwiseAbs().maxCoeff());
+        llt_.compute(M_);
+        if (llt_.info() != Eigen::Success) return false;
+      }
+      // Predictor (affine scaling).
+      for (int i = 0; i < rows_; ++i) {
+        rcw_[i] = -w_[i] * z_[i];
+        rcs_[i] = -s_[i] * y_[i];
+      }
+      direction(A, rho);
+      double alpha = stepToBoundary(rho, 1.0);
+      double mu_aff = 0.0;
+      for (int i = 0; i < rows_; ++i) {
+        mu_aff += (w_[i] + alpha * dw_[i]) * (z_[i] + alpha * dz_[i]);
+        if (rho[i] > 0) mu_aff += (s_[i] + alpha * ds_[i]) * (y_[i] + alpha * dy_[i]);
+      }
+      mu_aff /= std::max(1, count);
+      const double sigma = std::pow(std::clamp(mu_aff / std::max(mu, 1e-300), 0.0, 1.0), 3);
+      dwa_ = dw_;
+      dza_ = dz_;
+      dsa_ = ds_;
+      dya_ = dy_;
+      // Corrector.
+      for (int i = 0; i < rows_; ++i) {
+        rcw_[i] = sigma * mu - w_[i] * z_[i] - dwa_[i] * dza_[i];
+        rcs_[i] = rho[i] > 0 ? sigma * mu - s_[i] * y_[i] - dsa_[i] * dya_[i] : 0.0;
+      }
+      direction(A, rho);
+      alpha = stepToBoundary(rho, 0.995);
+      d_ += alpha * dd_;
+      w_ += alpha * dw_;
+      z_ += alpha * dz_;
+      s_ += alpha * ds_;
+      y_ += alpha * dy_;
+    }
+    return true;
+  }
+
+  const Eigen::VectorXd& step() const { return d_; }
+  const Eigen::VectorXd& multipliers() const { return z_; }
+
+ private:
+  // The Newton direction for the complementarity right-hand sides rcw_, rcs_ (residuals in
+  // rd_, rp_, rs_; factorisation in llt_).
+  void direction(const Eigen::MatrixXd& A, const Eigen::VectorXd& rho) {
+    for (int i = 0; i < rows_; ++i) {
+      h_[i] = -rp_[i] + rcw_[i] / z_[i];
+      if (rho[i] > 0) h_[i] -= (rcs_[i] - s_[i] * rs_[i]) / y_[i];
+      tmp_rows_[i] = h_[i] / D_[i];
+    }
+    rhs_ = -rd_;
+    rhs_.noalias() += A.transpose() * tmp_rows_;
+    dd_ = llt_.solve(rhs_);
+    tmp_rows_.noalias() = A * dd_;
+    for (int i = 0; i < rows_; ++i) {
+      dz_[i] = (h_[i] - tmp_rows_[i]) / D_[i];
+      dw_[i] = (rcw_[i] - w_[i] * dz_[i]) / z_[i];
+      if (rho[i] > 0) {
+        dy_[i] = rs_[i] - dz_[i];
+        ds_[i] = (rcs_[i] - s_[i] * dy_[i]) / y_[i];
+      } else {
+        dy_[i] = ds_[i] = 0.0;
+      }
+    }
+  }
+
+  // Largest alpha <= 1 keeping (w, z, s, y) >= (1 - fraction) of their values.
+  double stepToBoundary(const Eigen::VectorXd& rho, double fraction) const {
+    double alpha = 1.0;
+    auto limit = [&](double v, double dv) {
+      if (dv < 0) alpha = std::min(alpha, -fraction * v / dv);
+    };
+    for (int i = 0; i < rows_; ++i) {
+      limit(w_[i], dw_[i]);
+      limit(z_[i], dz_[i]);
+      if (rho[i] > 0) {
+        limit(s_[i], ds_[i]);
+        limit(y_[i], dy_[i]);
+      }
+    }
+    return alpha;
+  }
+
+  int n_ = 0, rows_ = 0;
+  Eigen::VectorXd d_, rd_, dd_, rhs_;
+  Eigen::VectorXd w_, z_, s_, y_, rp_, rs_, D_, h_, rcw_, rcs_, dw_, dz_, ds_, dy_;
+  Eigen::VectorXd dwa_, dza_, dsa_, dya_, tmp_rows_;
+  Eigen::MatrixXd M_, AD_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+};
+
+// One row of the QP: a bound of a constraint (elastic) or of a variable (hard).
+struct QpRow {
+  enum Kind { ConstraintLower, ConstraintUpper, VariableLower, VariableUpper } kind;
+  int index;
+};
+
+}  // namespace
+
+DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0,
+                             const DenseSqpSettings& st) {
+  const int n = static_cast<int>(x0.size());
+  const int m = static_cast<int>(p.cl.size());
+  DenseSqpResult result;
+
+  std::vector<QpRow> rows;
+  for (int i = 0; i < m; ++i) {
+    if (finite(p.cl[i])) rows.push_back({QpRow::ConstraintLower, i});
+    if (finite(p.cu[i])) rows.push_back({QpRow::ConstraintUpper, i});
+  }
+  // Every variable has both rows: its bound or the step limit, whichever is tighter.
+  for (int j = 0; j < n; ++j) {
+    rows.push_back({QpRow::VariableLower, j});
+    rows.push_back({QpRow::VariableUpper, j});
+  }
+  const int nr = static_cast<int>(rows.size());
+
+  auto maxViolation = [&](const Eigen::VectorXd& c) {
+    double v = 0.0;
+    for (int i = 0; i < m; ++i) {
+      if (finite(p.cl[i])) v = std::max(v, p.cl[i] - c[i]);
+      if (finite(p.cu[i])) v = std::max(v, c[i] - p.cu[i]);
+    }
+    return v;
+  };
+  auto sumViolation = [&](const Eigen::VectorXd& c) {
+    double v = 0.0;
+    for (int i = 0; i < m; ++i) {
+      if (finite(p.cl[i])) v += std::max(0.0, p.cl[i] - c[i]);
+      if (finite(p.cu[i])) v += std::max(0.0, c[i] - p.cu[i]);
+    }
+    return v;
+  };
+
+  // The best point meeting the constraints among all the values asked for.
+  Eigen::VectorXd best_x;
+  double best_f = std::numeric_limits<double>::infinity(), best_violation = 0.0;
+  auto evaluate = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) {
+    ++result.evaluations;
+    if (!p.value(x, f, c) || !std::isfinite(f) || !c.allFinite()) return false;
+    const double violation = maxViolation(c);
+    if (violation <= st.constraint_tolerance && f < best_f) {
+      best_f = f;
+      best_x = x;
+      best_violation = violation;
+    }
+    return true;
+  };
+
+  Eigen::VectorXd x = x0;
+  for (int j = 0; j < n; ++j) x[j] = std::clamp(x[j], p.xl[j], std::max(p.xl[j], p.xu[j]));
+  double f = 0.0;
+  Eigen::VectorXd c(m), grad(n), g_old(n), xt(n), ct(m), lambda(m), nu(n), s(n), yv(n), Bs(n), r(n),
+      stat(n), rho_rows(nr), b(nr), b_soc(nr), dc(m), zero_g(n);
+  Eigen::MatrixXd J(m, n), J_old(m, n), A(nr, n);
+  Eigen::MatrixXd B = Eigen::MatrixXd::Identity(n, n);
+  DenseQp qp, qp_try;
+  qp.resize(n, nr);
+  qp_try.resize(n, nr);
+
+  auto finish = [&](SqpStatus status) {
+    result.status = status;
+    if (best_x.size() > 0) {
+      result.x = best_x;
+      result.f = best_f;
+      result.feasible = true;
+      result.violation = best_violation;
+    } else {
+      result.x = x;
+      result.f = f;
+      result.violation = m > 0 ? maxViolation(c) : 0.0;
+      result.feasible = false;
+    }
+    return result;
+  };
+
+  if (!evaluate(x, f, c)) return finish(SqpStatus::EvaluationFailed);
+  if (!p.derivatives(x, f, c, grad, J)) return finish(SqpStatus::EvaluationFailed);
+  double rho = st.initial_penalty * std::max(1.0, grad.lpNorm<Eigen::Infinity>());
+  // Step limit |d_j| <= radius * scale_j (scale: the variable's range, else max(1, |x0_j|)):
+  // BFGS steps far beyond where the linearisation holds are cut before the line search.
+  Eigen::VectorXd scale(n);
+  for (int j = 0; j < n; ++j)
+    scale[j] = finite(p.xl[j]) && finite(p.xu[j]) && p.xu[j] > p.xl[j]
+                   ? p.xu[j] - p.xl[j]
+                   : std::max(1.0, std::abs(x[j]));
+  double radius = st.initial_radius;
+  std::vector<char> limited(nr, 0);
+  bool fresh_hessian = true;
+  double stall_f = std::numeric_limits<double>::infinity();
+  int stall_iter = 0;
+
+  // The QP at x: a_i'd + s_i >= b_i for each row.
+  auto buildQp = [&]() {
+    for (int k = 0; k < nr; ++k) {
+      const QpRow& row = rows[k];
+      switch (row.kind) {
+        case QpRow::ConstraintLower:
+          A.row(k) = J.row(row.index);
+          b[k] = p.cl[row.index] - c[row.index];
+          break;
+        case QpRow::ConstraintUpper:
+          A.row(k) = -J.row(row.index);
+          b[k] = c[row.index] - p.cu[row.index];
+          break;
+        case QpRow::VariableLower: {
+          A.row(k).setZero();
+          A(k, row.index) = 1.0;
+          const double bound =
+              finite(p.xl[row.index]) ? p.xl[row.index] - x[row.index] : -kSqpInfinity;
+          const double limit = -radius * scale[row.index];
+          limited[k] = limit > bound;
+          b[k] = std::max(bound, limit);
+          break;
+        }
+        case QpRow::VariableUpper: {
+          A.row(k).setZero();
+          A(k, row.index) = -1.0;
+          const double bound =
+              finite(p.xu[row.index]) ? x[row.index] - p.xu[row.index] : -kSqpInfinity;
+          const double limit = -radius * scale[row.index];
+          limited[k] = limit > bound;
+          b[k] = std::max(bound, limit);
+          break;
+        }
+      }
+    }
+  };
+  for (int iter = 1; iter <= st.max_iterations; ++iter) {
+    result.iterations = iter;
+    buildQp();
+    auto linearViolation = [&](const Eigen::VectorXd& d) {
+      double v = 0.0;
+      for (int k = 0; k < nr; ++k)
+        if (rows[k].kind == QpRow::ConstraintLower || rows[k].kind == QpRow::ConstraintUpper)
+          v += std::max(0.0, b[k] - A.row(k).dot(d));
+      return v;
+    };
+    auto setPenalty = [&](double value) {
+      for (int k = 0; k < nr; ++k)
+        rho_rows[k] =
+            rows[k].kind == QpRow::ConstraintLower || rows[k].kind == QpRow::ConstraintUpper ? value
+                                                                                             : 0.0;
+    };
+    setPenalty(rho);
+    if (!qp.solve(B, grad, A, b, rho_rows, st.qp_max_iterations))
+      return finish(SqpStatus::QpFailed);
+    const double v = sumViolation(c);
+    double v_lin = linearViolation(qp.step());
+    // Steering: when the linearised constraints are not met at this penalty, raise it while that
+    // reduces their violation (Byrd, Nocedal & Waltz 2008, simplified).
+    for (int tries = 0; tries < 3 && v_lin > 1e-9 * (1.0 + v) && rho < st.max_penalty; ++tries) {
+      setPenalty(10.0 * rho);
+      if (!qp_try.solve(B, grad, A, b, rho_rows, st.qp_max_iterations)) break;
+      const double v_try = linearViolation(qp_try.step());
+      if (!(v_try < 0.9 * v_lin)) break;
+      rho *= 10.0;
+      std::swap(qp, qp_try);
+      v_lin = v_try;
+    }
+    const Eigen::VectorXd& d = qp.step();
+    const double dnorm = d.lpNorm<Eigen::Infinity>();
+    if (dnorm <= 1e-12 * (1.0 + x.lpNorm<Eigen::Infinity>())) return finish(SqpStatus::SmallStep);
+
+    // The penalty must make the step a descent direction of the merit with a predicted
+    // reduction dominated by the constraints' (Nocedal & Wright 2006, Eq. 18.36):
+    //   rho >= (g'd + 1/2 d'Bd) / ((1 - 0.1) (v - v_lin)).
+    if (v - v_lin > 1e-12) {
+      const double needed = (grad.dot(d) + 0.5 * d.dot(B * d)) / (0.9 * (v - v_lin));
+      if (needed > rho) rho = std::min(st.max_penalty, std::max(needed, 2.0 * rho));
+    }
+    // l1 merit, Armijo backtracking along d.
+    const double phi0 = f + rho * v;
+    const double slope = grad.dot(d) - rho * (v - v_lin);
+    double alpha = 1.0, ft = 0.0;
+    bool accepted = false, soc = false;
+    bool evaluated = false;
+    auto tryPoint = [&](const Eigen::VectorXd& step, double a) {
+      xt = x + step;
+      for (int j = 0; j < n; ++j) xt[j] = std::clamp(xt[j], p.xl[j], std::max(p.xl[j], p.xu[j]));
+      evaluated = evaluate(xt, ft, ct);
+      if (!evaluated) return false;
+      return ft + rho * sumViolation(ct) <= phi0 + 1e-4 * a * std::min(slope, 0.0);
+    };
+    for (int k = 0; k <= st.max_backtracks; ++k, alpha *= 0.5) {
+      if (tryPoint(alpha * d, alpha)) {
+        accepted = true;
+        break;
+      }
+      if (k == 0 && m > 0 && evaluated) {
+        // Second-order correction (N&W Algorithm 18.3's idea): the full step was rejected, its
+        // constraint values are known; shift the QP's rows by the linearisation's error
+        // c(x + d) - c(x) - J d and take the corrected step instead.
+        dc = ct - c;
+        dc.noalias() -= J * d;
+        for (int r = 0; r < nr; ++r) {
+          b_soc[r] = b[r];
+          if (rows[r].kind == QpRow::ConstraintLower) b_soc[r] -= dc[rows[r].index];
+          if (rows[r].kind == QpRow::ConstraintUpper) b_soc[r] += dc[rows[r].index];
+        }
+        if (qp_try.solve(B, grad, A, b_soc, rho_rows, st.qp_max_iterations) &&
+            tryPoint(qp_try.step(), 1.0)) {
+          accepted = true;
+          soc = true;
+          break;
+        }
+      }
+    }
+    if (st.print)
+      std::fprintf(stderr,
+                   "sqp %2d f %.6e viol %.2e (lin %.2e) rho %.1e |d| %.2e slope %.2e alpha %.3g "
+                   "radius %.2g%s%s\n",
+                   iter, f, v, v_lin, rho, dnorm, slope, alpha, radius, soc ? " soc" : "",
+                   accepted ? "" : " (no step)");
+    if (!accepted) {
+      if (fresh_hessian) return finish(SqpStatus::LineSearchFailed);
+      B.setIdentity();  // the quasi-Newton model misleads: start it again
+      fresh_hessian = true;
+      continue;
+    }
+    // The step limit follows the line search: at least twice the last full step, and after a
+    // shortened step the accepted length, shrinking by at most a factor of 4 per iteration.
+    {
+      const double reach = ((xt - x).cwiseQuotient(scale)).lpNorm<Eigen::Infinity>();
+      if (alpha < 1.0)
+        radius = std::max({reach, 0.25 * radius, 1e-8});
+      else
+        radius = std::min(std::max(radius, 2.0 * reach), 1e3);
+    }
+    s = xt - x;
+    g_old = grad;
+    J_old = J;
+    x = xt;
+    f = ft;
+    c = ct;
+    if (!p.derivatives(x, f, c, grad, J)) return finish(SqpStatus::EvaluationFailed);
+
+    // Multipliers of the QP: lambda for the constraints, nu for the variable bounds.
+    lambda.setZero();
+    nu.setZero();
+    const Eigen::VectorXd& z = qp.multipliers();
+    for (int k = 0; k < nr; ++k) {
+      switch (rows[k].kind) {
+        case QpRow::ConstraintLower:
+          lambda[rows[k].index] += z[k];
+          break;
+        case QpRow::ConstraintUpper:
+          lambda[rows[k].index] -= z[k];
+          break;
+        case QpRow::VariableLower:
+          if (!limited[k]) nu[rows[k].index] += z[k];
+          break;
+        case QpRow::VariableUpper:
+          if (!limited[k]) nu[rows[k].index] -= z[k];
+          break;
+      }
+    }
+    // Damped BFGS on the Lagrangian's gradient difference (Powell's damping keeps B positive
+    // definite).
+    yv = grad - g_old;
+    yv.noalias() -= (J - J_old).transpose() * lambda;
+    Bs.noalias() = B * s;
+    const double sBs = s.dot(Bs), sy = s.dot(yv);
+    if (sBs > 1e-16) {
+      const double theta = sy >= 0.2 * sBs ? 1.0 : 0.8 * sBs / (sBs - sy);
+      r = theta * yv + (1.0 - theta) * Bs;
+      B.noalias() += r * r.transpose() / s.dot(r);
+      B.noalias() -= Bs * Bs.transpose() / sBs;
+      fresh_hessian = false;
+    }
+
+    // Feasibility probe: a step that cut the objective usually leaves a small violation (the
+    // constraints' curvature). The B-norm projection onto the linearised constraints at the new
+    // point (the QP without gradient) is evaluated once; if it meets the constraints, it joins
+    // the candidates for the best feasible point. The iterate stays where it is.
+    if (m > 0 && maxViolation(c) > st.constraint_tolerance) {
+      buildQp();
+      setPenalty(rho);
+      zero_g.setZero();
+      if (qp_try.solve(B, zero_g, A, b, rho_rows, st.qp_max_iterations)) {
+        xt = x + qp_try.step();
+        for (int j = 0; j < n; ++j) xt[j] = std::clamp(xt[j], p.xl[j], std::max(p.xl[j], p.xu[j]));
+        evaluate(xt, ft, ct);
+      }
+    }
+    // KKT at the new point with the QP's multipliers.
+    stat = grad - nu;
+    stat.noalias() -= J.transpose() * lambda;
+    if (maxViolation(c) <= st.constraint_tolerance &&
+        stat.lpNorm<Eigen::Infinity>() <=
+            st.tolerance * std::max(1.0, grad.lpNorm<Eigen::Infinity>()))
+      return finish(SqpStatus::Converged);
+    // The stall rule: a feasible point is known and its objective has not dropped 0.1 % in
+    // stall_iterations iterations.
+    // Iterations whose iterate is still far from feasible (max violation > 1e-3) do not count:
+    // a feasible point found by an early probe would otherwise stop the solve while the iterates
+    // are still on their way to the optimum.
+    if (best_x.size() > 0) {
+      if (best_f < stall_f - 1e-3 * std::abs(stall_f) || maxViolation(c) > 1e-3) {
+        stall_f = std::min(stall_f, best_f);
+        stall_iter = iter;
+      }
+      if (st.stall_iterations > 0 && iter - stall_iter >= st.stall_iterations)
+        return finish(SqpStatus::Stalled);
+    }
+    if (s.lpNorm<Eigen::Infinity>() <= 1e-12 * (1.0 + x.lpNorm<Eigen::Infinity>()))
+      return finish(SqpStatus::SmallStep);
+  }
+  return finish(SqpStatus::MaxIterations);
+}
+
+}  // namespace wj::planner

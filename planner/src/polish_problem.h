@@ -1,0 +1,70 @@
+#pragma once
+/// @file The polish NLP of a DE candidate, shared by its solvers (Ipopt, dense SQP):
+///   min energy_weight * energy(u)  s.t.  near-active sampled margins >= polish.backoff,
+///   target errors = 0,  |landing pitch| <= tolerance (apex targets),  box bounds,
+/// over the free variables of the search vector (those with upper > lower bound).
+/// Internal to the planner library.
+
+#include <Eigen/Core>
+#include <limits>
+#include <vector>
+
+#include "planner/jump_model.h"
+
+namespace wj::planner {
+
+/// Constraint violation (scaled margins, target residuals) at which a point counts as meeting
+/// the constraints; the full evaluation re-checks every sample before the point is accepted.
+inline constexpr double kPolishConstraintTolerance = 1e-6;
+
+/// The polish problem of one candidate; x is the vector of free variables. Not thread-safe
+/// (value() writes a workspace); one per polish.
+class PolishProblem {
+ public:
+  PolishProblem(const JumpModel& model, const Eigen::VectorXd& u0);
+
+  int numVariables() const { return static_cast<int>(free_.size()); }
+  int numConstraints() const { return m_; }
+  /// Bounds of x and of c(x) (2e19 = no upper bound).
+  const Eigen::VectorXd& xLower() const { return xl_; }
+  const Eigen::VectorXd& xUpper() const { return xu_; }
+  const Eigen::VectorXd& cLower() const { return cl_; }
+  const Eigen::VectorXd& cUpper() const { return cu_; }
+  /// The free variables of u0.
+  Eigen::VectorXd startPoint() const;
+  /// The full search vector for x (the fixed variables as in u0).
+  Eigen::VectorXd fullVector(const Eigen::VectorXd& x) const;
+
+  /// Objective and constraints at x; false if the model has no trajectory there.
+  bool value(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c);
+  /// Forward-difference gradient and Jacobian (m x n) at x, given f and c there; each probe
+  /// steps inward at the upper bound so that it stays in the box.
+  bool derivatives(const Eigen::VectorXd& x, double f, const Eigen::VectorXd& c,
+                   Eigen::VectorXd& grad, Eigen::MatrixXd& jac);
+  /// Max violation of c's bounds.
+  double violation(const Eigen::VectorXd& c) const;
+
+  /// Keeps (x, f) if c meets the constraints to kPolishConstraintTolerance and f is the lowest
+  /// so far.
+  void rememberIfBest(const Eigen::VectorXd& x, double f, const Eigen::VectorXd& c);
+  bool hasFeasible() const { return best_x_.size() > 0; }
+  double bestObjective() const { return best_f_; }
+  const Eigen::VectorXd& bestFeasible() const { return best_x_; }
+
+ private:
+  // The sampled constraints passed to the solver: those within kActiveMargin (scaled) of their
+  // bound that are a local minimum of their channel over time, and the samples on either side
+  // of such a minimum (the minimum can move by a sample as u changes).
+  void selectActive(const Eigen::VectorXd& g);
+
+  const JumpModel& model_;
+  Eigen::VectorXd u0_, g_full_, u_work_, c_work_;
+  std::vector<int> free_, active_, residuals_;
+  bool apex_ = false;
+  int m_ = 0;
+  Eigen::VectorXd xl_, xu_, cl_, cu_;
+  double best_f_ = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best_x_;
+};
+
+}  // namespace wj::planner
