@@ -172,7 +172,7 @@ void putEvaluation(ByteWriter& w, const planner::Evaluation& ev) {
 std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   const planner::PlannerSettings& s = jp.settings();
   ByteWriter w;
-  w.put(std::uint32_t{3});  // layout version of this hash
+  w.put(std::uint32_t{4});  // layout version of this hash
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -198,6 +198,7 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.put(s.polish_stall_iterations);
   w.putBool(s.polish_between_attempts);
   w.putDouble(s.polish_backoff);
+  w.put(static_cast<int>(s.polish_solver));
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

@@ -428,7 +428,7 @@ TEST(JumpPlanner, HardwareForwardPresetIsFeasible) {
 // What the cache does on a miss: the plan of the neighbouring velocity bin as warm start. Its
 // cloud of perturbations puts a feasible point in the first generations, and the polish keeps
 // its margins off their bounds.
-TEST(JumpPlanner, WarmStartFromTheNeighbouringBinIsFeasibleWithinThreeGenerations) {
+TEST(JumpPlanner, WarmStartFromTheNeighbouringBinIsFeasibleInAThirdOfAColdSearch) {
   const JumpPlanner planner = makePlanner();
   const Scenario a = makePreset(planner, "forward_hw", 3.0);
   const PlannerResult ra = planner.plan(a.task, a.initial);
@@ -438,9 +438,11 @@ TEST(JumpPlanner, WarmStartFromTheNeighbouringBinIsFeasibleWithinThreeGeneration
   o.warm_start = ra.u;
   const PlannerResult rb = planner.plan(b.task, b.initial, o);
   EXPECT_TRUE(rb.evaluation.feasible) << rb.summary;
-  // Within the first generations: a cold solve at this speed needs ~1,000 evaluations.
-  EXPECT_LE(rb.de.evaluations, 3 * planner.settings().de.population_size);
-  EXPECT_LT(5 * rb.de.evaluations, planner.plan(b.task, b.initial).de.evaluations);
+  // A cold solve at this speed needs ~1,100 evaluations. From the sqp-polished neighbour,
+  // which sits on its back-off margins, it takes 11 generations (352 evaluations); from the
+  // Ipopt-polished one, which its stall rule leaves further inside, 2 (docs/planner.md).
+  EXPECT_LE(rb.de.evaluations, 12 * planner.settings().de.population_size);
+  EXPECT_LT(3 * rb.de.evaluations, planner.plan(b.task, b.initial).de.evaluations);
   // The same seed and warm start give the same plan.
   EXPECT_EQ(planner.plan(b.task, b.initial, o).u, rb.u);
   // Polished with a back-off: every class keeps a margin.
@@ -678,7 +680,7 @@ TEST(PlannerSettings, YamlFailsOnUnknownKeysAndNamesThem) {
 }
 
 TEST(PlannerSettings, PolishSolverIsReadAndCheckedByName) {
-  EXPECT_EQ(PlannerSettings().polish_solver, PolishSolver::Ipopt);
+  EXPECT_EQ(PlannerSettings().polish_solver, PolishSolver::Sqp);
   EXPECT_EQ(PlannerSettings::fromYamlString("polish: {solver: ipopt}\n").polish_solver,
             PolishSolver::Ipopt);
   EXPECT_EQ(PlannerSettings::fromYamlString("polish: {solver: sqp}\n").polish_solver,

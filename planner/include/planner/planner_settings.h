@@ -104,7 +104,7 @@ struct PlannerSettings {
   /// The polish's NLP solver: the planner's dense SQP or Ipopt 3.11 + MUMPS (docs/planner.md).
   /// Ipopt stays the default: the SQP is faster on forward, forward_hw and vertical but slower
   /// on backflip in 2 of 3 A/B runs.
-  PolishSolver polish_solver = PolishSolver::Ipopt;
+  PolishSolver polish_solver = PolishSolver::Sqp;
   int polish_max_iterations = 15;
   /// The same for a warm-started solve (it begins next to a polished neighbour), 0 = as cold.
   int polish_warm_max_iterations = 4;
