@@ -160,6 +160,9 @@ class Server {
   std::string target_;
 };
 
+// Trajectory format of every request (--format): knots, as the robot client asks, or dense.
+bool g_knots = true;
+
 v1::PlanJumpRequest standing(double v0, double height) {
   v1::PlanJumpRequest r;
   auto* s = r.mutable_state();
@@ -174,6 +177,7 @@ v1::PlanJumpRequest standing(double v0, double height) {
   t->set_event(v1::TARGET_EVENT_APEX);
   t->set_takeoff_mode(v1::TAKEOFF_MODE_SIMULTANEOUS);
   r.set_request_id("bench");
+  r.set_trajectory_format(g_knots ? v1::TRAJECTORY_FORMAT_KNOTS : v1::TRAJECTORY_FORMAT_DENSE);
   return r;
 }
 
@@ -295,6 +299,62 @@ double clientV0(int i) {
   return 0.1 * i;
 }
 
+// The transport's own cost on this machine, the peer of the hit figures: the same clients on
+// their own connections calling GetStats (answered in the service's reactor, no planning, a
+// ~150-byte response) as fast as they can for `seconds`.
+json benchGrpcFloor(Server& server, int clients, double seconds) {
+  std::vector<std::vector<double>> per_thread(static_cast<std::size_t>(clients));
+  std::atomic<int> ready{0};
+  std::atomic<bool> go{false};
+  std::atomic<long> errors{0};
+  std::vector<std::thread> threads;
+  for (int i = 0; i < clients; ++i) {
+    threads.emplace_back([&, i] {
+      grpc::ChannelArguments args;
+      args.SetInt("wj.bench.floor_client", i);  // one connection per client
+      auto stub = v1::JumpPlanner::NewStub(
+          grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), args));
+      v1::GetStatsResponse response;
+      {
+        grpc::ClientContext ctx;
+        ctx.set_deadline(std::chrono::system_clock::now() + 10s);
+        (void)stub->GetStats(&ctx, v1::GetStatsRequest{}, &response);
+      }
+      ++ready;
+      while (!go.load()) std::this_thread::yield();
+      const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+      auto& out = per_thread[static_cast<std::size_t>(i)];
+      while (Clock::now() < end) {
+        grpc::ClientContext ctx;
+        ctx.set_deadline(std::chrono::system_clock::now() + 5s);
+        const auto t0 = Clock::now();
+        const grpc::Status st = stub->GetStats(&ctx, v1::GetStatsRequest{}, &response);
+        out.push_back(msSince(t0));
+        if (!st.ok()) ++errors;
+      }
+    });
+  }
+  while (ready.load() < clients) std::this_thread::sleep_for(1ms);
+  const double server_cpu0 = server.cpuMs(), client_cpu0 = selfCpuMs();
+  const auto t0 = Clock::now();
+  go = true;
+  for (auto& t : threads) t.join();
+  const double elapsed_s = msSince(t0) / 1e3;
+  const double server_cpu_ms = server.cpuMs() - server_cpu0;
+  const double client_cpu_ms = selfCpuMs() - client_cpu0;
+  std::vector<double> all;
+  for (const auto& v : per_thread) all.insert(all.end(), v.begin(), v.end());
+  const auto n = static_cast<double>(std::max<std::size_t>(all.size(), 1));
+  json j = latencyJson(all);
+  j["rpc"] = "GetStats";
+  j["throughput_req_s"] = static_cast<double>(all.size()) / elapsed_s;
+  j["errors"] = errors.load();
+  j["server_cpu_us_per_request"] = server_cpu_ms * 1e3 / n;
+  j["client_cpu_us_per_request"] = client_cpu_ms * 1e3 / n;
+  j["cpu_cores_busy"] = (server_cpu_ms + client_cpu_ms) / 1e3 / elapsed_s;
+  return j;
+}
+
 json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
   auto config = baseConfig(dir);
   config.cache.path.clear();
@@ -396,6 +456,7 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
   j["target_throughput_req_s"] = 10000.0;
   j["meets_p99_target"] = percentile(all, 0.99) <= 1.0;
   j["meets_throughput_target"] = static_cast<double>(all.size()) / elapsed_s >= 10000.0;
+  j["grpc_floor"] = benchGrpcFloor(server, clients, seconds);
   return j;
 }
 
@@ -442,7 +503,11 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
     std::optional<planner::JumpModel> model;
     time("model", [&] { model.emplace(robot, settings, r.task, r.initial); });
     time("evaluate", [&] { model->evaluate(u, a.evaluation); });
-    time("build_plan", [&] { a.plan = model->buildPlan(u, &a.evaluation); });
+    time("build_plan", [&] {
+      a.plan = r.trajectory == wj::server::TrajectoryFormat::Knots
+                   ? model->buildKnots(u, &a.evaluation)
+                   : model->buildPlan(u, &a.evaluation);
+    });
     time("describe", [&] { wj::server::describeEvaluation(a.evaluation, a.binding, a.summary); });
     // On an arena with the server's block sizes (grpc_service.cpp), as the server builds it.
     google::protobuf::ArenaOptions arena_options;
@@ -468,6 +533,7 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
   j["iterations"] = iterations;
   j["response_bytes"] = bytes;
   j["samples"] = parsed.plan().joints().num_samples();
+  j["knots"] = parsed.plan().knots().t_s_size();
   j["sample_period_s"] = parsed.plan().joints().sample_period_s();
   return j;
 }
@@ -718,6 +784,10 @@ int main(int argc, char** argv) {
                  "planner.output_dt_s of the servers (0: the planner's own, 1 ms); the default is "
                  "config/planner_server.yaml's")
       ->capture_default_str();
+  std::string format = "knots";
+  app.add_option("--format", format, "trajectory format of the requests: knots | dense")
+      ->check(CLI::IsMember({"knots", "dense"}))
+      ->capture_default_str();
   int breakdown_iterations = 300;
   app.add_option("--breakdown-iterations", breakdown_iterations,
                  "requests of the single-thread breakdown of a hit")
@@ -733,6 +803,7 @@ int main(int argc, char** argv) {
   app.add_option("--redis-ops", redis_ops, "lookups per figure of the redis part")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  g_knots = format == "knots";
   ::signal(SIGPIPE, SIG_IGN);
   // The clients' side keeps its freed memory as planner_server does (see its main): without
   // it, parsing each 0.2-0.3 MB response faults its buffers in again.
@@ -745,6 +816,7 @@ int main(int argc, char** argv) {
   const std::filesystem::path dir = pattern;
   json out;
   out["machine"] = {{"hardware_threads", std::thread::hardware_concurrency()}};
+  out["trajectory_format"] = format;
   try {
     if (only.empty() || only == "hits") out["cache_hits"] = benchHits(dir, clients, hit_seconds);
     if (only.empty() || only == "hits" || only == "breakdown")

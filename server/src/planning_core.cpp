@@ -551,6 +551,12 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     answer.verification.failure_reasons.push_back(why);
   }
   const auto& cand = result.candidates[chosen];
+  if (request.trajectory == TrajectoryFormat::Knots && answer.plan.numSamples() > 0) {
+    // The verifier ran the dense references; the answer carries the same plan as knots.
+    const planner::JumpModel model(planner_.robot(), planner_.settings(), request.task,
+                                   request.initial);
+    answer.plan = model.buildKnots(cand.u, &cand.evaluation);
+  }
   answer.evaluation = cand.evaluation;
   if (chosen == 0) {
     answer.binding = result.binding;
@@ -650,7 +656,8 @@ PlanAnswer PlanningCore::answerFromSolution(const CachedSolution& s, const PlanR
   model.evaluate(u, a.evaluation);
   if (!a.evaluation.valid)
     throw std::runtime_error("the cached solution has no valid trajectory at this state");
-  a.plan = model.buildPlan(u, &a.evaluation);
+  a.plan = request.trajectory == TrajectoryFormat::Knots ? model.buildKnots(u, &a.evaluation)
+                                                         : model.buildPlan(u, &a.evaluation);
   describeEvaluation(a.evaluation, a.binding, a.summary);
   a.verification = summaryOf(s.verification);
   a.source = source;

@@ -206,6 +206,20 @@ PlanRequest toPlanRequest(const v1::PlanJumpRequest& request, const model::Robot
   r.max_verified_candidates = static_cast<int>(b.max_verified_candidates());
   r.skip_verification = b.skip_verification();
   r.seed = b.seed();
+  switch (request.trajectory_format()) {
+    case v1::TRAJECTORY_FORMAT_UNSPECIFIED:
+    case v1::TRAJECTORY_FORMAT_DENSE:
+      r.trajectory = TrajectoryFormat::Dense;
+      break;
+    case v1::TRAJECTORY_FORMAT_KNOTS:
+      r.trajectory = TrajectoryFormat::Knots;
+      break;
+    default:
+      invalid(
+          "trajectory_format must be TRAJECTORY_FORMAT_UNSPECIFIED (0), TRAJECTORY_FORMAT_DENSE "
+          "(1) or TRAJECTORY_FORMAT_KNOTS (2), got " +
+          std::to_string(static_cast<int>(request.trajectory_format())));
+  }
   return r;
 }
 

@@ -60,6 +60,26 @@ std::string locationName(const model::RobotModel& robot, int location) {
   }
 }
 
+// Knot-major float32 arrays: one converting, transposing copy per matrix.
+void toProto(const planner::PlanKnots& k, v1::TrajectoryKnots* out) {
+  const int n = k.size();
+  out->mutable_t_s()->Assign(k.t.begin(), k.t.end());
+  using KnotMajor = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const auto fill = [n](const Eigen::MatrixXd& m, google::protobuf::RepeatedField<float>* f) {
+    f->Reserve(n * model::kNumJoints);
+    f->AddNAlreadyReserved(n * model::kNumJoints);
+    Eigen::Map<KnotMajor>(f->mutable_data(), n, model::kNumJoints) = m.cast<float>();
+  };
+  fill(k.q, out->mutable_positions_rad());
+  fill(k.qd, out->mutable_velocities_rad_s());
+  fill(k.tau, out->mutable_torques_nm());
+  auto* c = out->mutable_centroidal();
+  c->Reserve(6 * n);
+  for (const planner::PlanarState& s : k.centroidal)
+    for (const double v : {s.x, s.z, s.pitch, s.vx, s.vz, s.pitch_rate})
+      c->AddAlreadyReserved(static_cast<float>(v));
+}
+
 void toProto(const planner::JumpPlan& plan, const model::RobotModel& robot, v1::Plan* out) {
   auto* times = out->mutable_phase_times();
   times->set_t1_s(plan.t1);
@@ -73,6 +93,12 @@ void toProto(const planner::JumpPlan& plan, const model::RobotModel& robot, v1::
     toProto(phase.hind.fz, p->mutable_hind()->mutable_fz_n());
     toProto(phase.front.fx, p->mutable_front()->mutable_fx_n());
     toProto(phase.front.fz, p->mutable_front()->mutable_fz_n());
+  }
+  out->mutable_decision_vector()->Assign(plan.decision.data(),
+                                         plan.decision.data() + plan.decision.size());
+  if (plan.knots.size() > 0) {
+    toProto(plan.knots, out->mutable_knots());
+    return;
   }
   const int n = plan.numSamples();
   auto* traj = out->mutable_centroidal_trajectory();
@@ -105,8 +131,6 @@ void toProto(const planner::JumpPlan& plan, const model::RobotModel& robot, v1::
   fill(plan.q, joints->mutable_positions_rad());
   fill(plan.qd, joints->mutable_velocities_rad_s());
   fill(plan.tau, joints->mutable_torques_nm());
-  out->mutable_decision_vector()->Assign(plan.decision.data(),
-                                         plan.decision.data() + plan.decision.size());
 }
 
 }  // namespace
@@ -127,7 +151,8 @@ v1::PlanSource toProto(PlanSource source) {
 
 void toProto(const PlanAnswer& a, const model::RobotModel& robot, const std::string& request_id,
              v1::PlanJumpResponse* out) {
-  if (a.plan.numSamples() > 0) toProto(a.plan, robot, out->mutable_plan());
+  if (a.plan.numSamples() > 0 || a.plan.knots.size() > 0)
+    toProto(a.plan, robot, out->mutable_plan());
   toProto(a.evaluation.predicted, out->mutable_predicted());
   auto* f = out->mutable_feasibility();
   f->set_feasible(a.evaluation.feasible);

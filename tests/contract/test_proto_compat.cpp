@@ -291,7 +291,7 @@ TEST_F(ProtoCompatTest, AdditionsAreAllowed) {
   pb::FileDescriptorSet current = baseline_;
   pb::FieldDescriptorProto& priority = *messageNamed(current, "PlanJumpRequest").add_field();
   priority.set_name("priority");
-  priority.set_number(5);
+  priority.set_number(6);
   priority.set_label(pb::FieldDescriptorProto::LABEL_OPTIONAL);
   priority.set_type(pb::FieldDescriptorProto::TYPE_UINT32);
   pb::EnumValueDescriptorProto& land = *enumNamed(current, "TargetEvent").add_value();

@@ -126,6 +126,18 @@ class PythonClientTest(unittest.TestCase):
         again = self.stub.PlanJump(self.standing_request(0.71, "py-2"), timeout=30)
         self.assertEqual(again.source, self.pb2.PLAN_SOURCE_CACHE_HIT)
         self.assertEqual(again.stats.cache_key, response.stats.cache_key)
+        # The same plan as knots: no dense arrays, K x 16 float32 joint arrays, t3 last.
+        knots_request = self.standing_request(0.71, "py-3")
+        knots_request.trajectory_format = self.pb2.TRAJECTORY_FORMAT_KNOTS
+        compact = self.stub.PlanJump(knots_request, timeout=30)
+        self.assertEqual(compact.source, self.pb2.PLAN_SOURCE_CACHE_HIT)
+        self.assertEqual(compact.plan.joints.num_samples, 0)
+        knots = compact.plan.knots
+        self.assertGreaterEqual(len(knots.t_s), 4)
+        self.assertEqual(len(knots.positions_rad), 16 * len(knots.t_s))
+        self.assertEqual(len(knots.centroidal), 6 * len(knots.t_s))
+        self.assertAlmostEqual(knots.t_s[-1], compact.plan.phase_times.t3_s, places=9)
+        self.assertLess(compact.ByteSize() * 3, again.ByteSize())
 
     def test_b_invalid_argument_names_the_field(self):
         request = self.standing_request(0.7)

@@ -15,6 +15,7 @@
 #include <set>
 #include <thread>
 
+#include "planner/plan_knots.h"
 #include "planner_client/planner_client.h"
 #include "server/plan_verifier.h"
 #include "server/solution_store.h"
@@ -124,6 +125,80 @@ TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
   EXPECT_EQ(s.latencies(0).count(), 1u);
   EXPECT_GT(s.latencies(0).p99_ms(), 0.0);
   EXPECT_GT(s.uptime_s(), 0.0);
+}
+
+// A plan sent as knots, on a miss and on a hit: no dense arrays, consistent knot arrays, and
+// densified at the same period it matches the dense answer of the same cached solution.
+TEST(Integration, PlansTravelAsKnotsWhenAsked) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.planner.output_dt_s = 0.001;
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  v1::PlanJumpRequest r = standingRequest(1.0);
+  r.set_trajectory_format(v1::TRAJECTORY_FORMAT_KNOTS);
+  const auto miss = plan(c, r);
+  ASSERT_TRUE(miss.ok()) << miss.status.error_message();
+  EXPECT_EQ(miss.response.source(), v1::PLAN_SOURCE_CACHE_MISS);
+  r.set_trajectory_format(v1::TRAJECTORY_FORMAT_DENSE);
+  const auto dense = plan(c, r);
+  ASSERT_TRUE(dense.ok()) << dense.status.error_message();
+  EXPECT_EQ(dense.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  expectWholePlan(dense.response);
+  r.set_trajectory_format(v1::TRAJECTORY_FORMAT_KNOTS);
+  const auto hit = plan(c, r);
+  ASSERT_TRUE(hit.ok()) << hit.status.error_message();
+  EXPECT_EQ(hit.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  for (const auto* resp : {&miss.response, &hit.response}) {
+    const v1::Plan& p = resp->plan();
+    EXPECT_EQ(p.joints().num_samples(), 0u);
+    EXPECT_EQ(p.centroidal_trajectory_size(), 0);
+    EXPECT_EQ(p.decision_vector_size(), 12);
+    const v1::TrajectoryKnots& k = p.knots();
+    const int n = k.t_s_size();
+    ASSERT_GE(n, 4);
+    EXPECT_EQ(k.positions_rad_size(), 16 * n);
+    EXPECT_EQ(k.velocities_rad_s_size(), 16 * n);
+    EXPECT_EQ(k.torques_nm_size(), 16 * n);
+    EXPECT_EQ(k.centroidal_size(), 6 * n);
+    EXPECT_EQ(k.t_s(0), 0.0);
+    EXPECT_DOUBLE_EQ(k.t_s(n - 1), p.phase_times().t3_s());
+    EXPECT_LT(resp->ByteSizeLong() * 3, dense.response.ByteSizeLong());
+  }
+  // Densified at the dense answer's period, the knots give the dense answer's references.
+  const v1::Plan& d = dense.response.plan();
+  const v1::TrajectoryKnots& k = hit.response.plan().knots();
+  planner::JumpPlan jp;
+  jp.t3 = hit.response.plan().phase_times().t3_s();
+  const int n = k.t_s_size();
+  jp.knots.t.assign(k.t_s().begin(), k.t_s().end());
+  jp.knots.q.resize(n, 16);
+  jp.knots.qd.resize(n, 16);
+  jp.knots.tau.resize(n, 16);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < 16; ++j) {
+      jp.knots.q(i, j) = k.positions_rad(16 * i + j);
+      jp.knots.qd(i, j) = k.velocities_rad_s(16 * i + j);
+      jp.knots.tau(i, j) = k.torques_nm(16 * i + j);
+    }
+    const float* c = k.centroidal().data() + 6 * i;
+    jp.knots.centroidal.push_back({c[0], c[1], c[2], c[3], c[4], c[5]});
+  }
+  planner::densify(jp, d.joints().sample_period_s());
+  ASSERT_EQ(static_cast<std::uint32_t>(jp.numSamples()), d.joints().num_samples());
+  double q_err = 0.0, tau_err = 0.0, x_err = 0.0;
+  for (int row = 0; row < jp.numSamples(); ++row) {
+    for (int j = 0; j < 16; ++j) {
+      if (j % 4 == 3) continue;  // wheel angles: integrated differently (Simpson, trapezoid)
+      q_err = std::max(q_err, std::abs(jp.q(row, j) - d.joints().positions_rad(16 * row + j)));
+      tau_err = std::max(tau_err, std::abs(jp.tau(row, j) - d.joints().torques_nm(16 * row + j)));
+    }
+    x_err =
+        std::max(x_err, std::abs(jp.centroidal[row].z - d.centroidal_trajectory(row).com_z_m()));
+  }
+  EXPECT_LT(q_err, 1e-3);
+  EXPECT_LT(tau_err, 0.25);
+  EXPECT_LT(x_err, 1e-5);
 }
 
 TEST(Integration, OutputSamplePeriodComesFromTheConfiguration) {

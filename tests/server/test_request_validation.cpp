@@ -170,6 +170,9 @@ TEST(RequestValidation, EveryBadFieldIsNamedWithItsRange) {
       {"long id",
        [](auto& r) { r.set_request_id(std::string(129, 'x')); },
        {"request_id", "at most 128 bytes", "got 129"}},
+      {"unknown trajectory format",
+       [](auto& r) { r.set_trajectory_format(static_cast<v1::TrajectoryFormat>(7)); },
+       {"trajectory_format", "TRAJECTORY_FORMAT_KNOTS (2)", "got 7"}},
   };
   for (const auto& c : cases) {
     v1::PlanJumpRequest r = test::standingRequest(1.0);

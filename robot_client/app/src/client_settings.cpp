@@ -199,6 +199,12 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     s.planner.max_evaluations = static_cast<std::uint32_t>(m.unsignedInt("max_evaluations"));
     s.planner.seed = m.unsignedInt("seed");
     s.planner.skip_verification = m.flag("skip_verification");
+    const std::string format = m.text("trajectory_format");
+    if (format != "knots" && format != "dense")
+      throw std::invalid_argument("robot client settings " + origin +
+                                  ": planner.trajectory_format must be 'knots' or 'dense', got '" +
+                                  format + "'");
+    s.planner.knots = format == "knots";
     s.planner.round_robin = m.flag("round_robin");
     StrictYamlMap tls = m.map("tls");
     s.planner.tls = tls.flag("enabled");

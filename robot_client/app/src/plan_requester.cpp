@@ -4,6 +4,7 @@
 #include <future>
 #include <sstream>
 
+#include "planner/plan_knots.h"
 #include "planner_client/planner_client.h"
 #include "wheeljump/planner/v1/jump_planner.pb.h"
 
@@ -56,6 +57,7 @@ v1::PlanJumpRequest makeRequest(const PlanRequestSnapshot& s, const PlannerConne
   b->set_max_evaluations(c.max_evaluations);
   b->set_seed(c.seed);
   b->set_skip_verification(c.skip_verification);
+  r.set_trajectory_format(c.knots ? v1::TRAJECTORY_FORMAT_KNOTS : v1::TRAJECTORY_FORMAT_DENSE);
   std::ostringstream id;
   id << "jump-" << std::lround(s.t * 1000.0);
   r.set_request_id(id.str());
@@ -114,19 +116,10 @@ std::string verificationName(v1::VerificationStatus s) {
 
 }  // namespace
 
-std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner::JumpPlan& plan) {
-  const v1::Plan& p = response.plan();
-  const v1::JointTrajectory& jt = p.joints();
-  const int n = static_cast<int>(jt.num_samples());
-  const std::size_t values = static_cast<std::size_t>(n) * model::kNumJoints;
-  if (n < 2) return "the plan has fewer than 2 joint samples";
-  if (static_cast<std::size_t>(jt.positions_rad_size()) != values ||
-      static_cast<std::size_t>(jt.velocities_rad_s_size()) != values ||
-      static_cast<std::size_t>(jt.torques_nm_size()) != values)
-    return "joint trajectory sizes do not match num_samples x 16";
-  if (p.centroidal_trajectory_size() != n)
-    return "centroidal trajectory has " + std::to_string(p.centroidal_trajectory_size()) +
-           " samples, joints " + std::to_string(n);
+namespace {
+
+// The header of a plan: phase times and force polynomials.
+void convertHeader(const v1::Plan& p, planner::JumpPlan& plan) {
   plan = planner::JumpPlan{};
   plan.t1 = p.phase_times().t1_s();
   plan.t2 = p.phase_times().t2_s();
@@ -141,6 +134,64 @@ std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner
     f.front = {fromProto(fp.front().fx_n()), fromProto(fp.front().fz_n())};
     plan.force_phases.push_back(std::move(f));
   }
+}
+
+// A plan sent as knots, densified at the executor's 1 kHz.
+std::string convertKnots(const v1::Plan& p, planner::JumpPlan& plan) {
+  constexpr double kDenseDt = 0.001;
+  const v1::TrajectoryKnots& k = p.knots();
+  const int n = k.t_s_size();
+  const std::size_t values = static_cast<std::size_t>(n) * model::kNumJoints;
+  if (static_cast<std::size_t>(k.positions_rad_size()) != values ||
+      static_cast<std::size_t>(k.velocities_rad_s_size()) != values ||
+      static_cast<std::size_t>(k.torques_nm_size()) != values)
+    return "knot arrays do not match the knot count x 16";
+  if (k.centroidal_size() != 6 * n) return "knot CoM states do not match the knot count x 6";
+  convertHeader(p, plan);
+  planner::PlanKnots& K = plan.knots;
+  K.t.assign(k.t_s().begin(), k.t_s().end());
+  using KnotMajor = Eigen::Matrix<float, Eigen::Dynamic, model::kNumJoints, Eigen::RowMajor>;
+  K.q = Eigen::Map<const KnotMajor>(k.positions_rad().data(), n, model::kNumJoints).cast<double>();
+  K.qd =
+      Eigen::Map<const KnotMajor>(k.velocities_rad_s().data(), n, model::kNumJoints).cast<double>();
+  K.tau = Eigen::Map<const KnotMajor>(k.torques_nm().data(), n, model::kNumJoints).cast<double>();
+  K.centroidal.resize(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const float* c = k.centroidal().data() + 6 * i;
+    K.centroidal[static_cast<std::size_t>(i)] = {c[0], c[1], c[2], c[3], c[4], c[5]};
+  }
+  if (std::string problem = planner::checkKnots(plan); !problem.empty()) return problem;
+  planner::densify(plan, kDenseDt);
+  return "";
+}
+
+}  // namespace
+
+std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner::JumpPlan& plan) {
+  const v1::Plan& p = response.plan();
+  if (p.knots().t_s_size() > 0) {
+    if (std::string problem = convertKnots(p, plan); !problem.empty()) return problem;
+    const int n = plan.numSamples();
+    plan.initial = plan.centroidal.front();
+    plan.q_initial = plan.q.row(0).transpose();
+    plan.q_landing = plan.q.row(n - 1).transpose();
+    plan.decision =
+        Eigen::Map<const Eigen::VectorXd>(p.decision_vector().data(), p.decision_vector_size());
+    plan.predicted = fromProto(response.predicted());
+    return sim::checkPlan(plan);
+  }
+  const v1::JointTrajectory& jt = p.joints();
+  const int n = static_cast<int>(jt.num_samples());
+  const std::size_t values = static_cast<std::size_t>(n) * model::kNumJoints;
+  if (n < 2) return "the plan has fewer than 2 joint samples";
+  if (static_cast<std::size_t>(jt.positions_rad_size()) != values ||
+      static_cast<std::size_t>(jt.velocities_rad_s_size()) != values ||
+      static_cast<std::size_t>(jt.torques_nm_size()) != values)
+    return "joint trajectory sizes do not match num_samples x 16";
+  if (p.centroidal_trajectory_size() != n)
+    return "centroidal trajectory has " + std::to_string(p.centroidal_trajectory_size()) +
+           " samples, joints " + std::to_string(n);
+  convertHeader(p, plan);
   plan.dt = jt.sample_period_s();
   plan.q.resize(n, model::kNumJoints);
   plan.qd.resize(n, model::kNumJoints);

@@ -24,6 +24,12 @@ inline constexpr int kNumPlanSources = 4;
 enum class VerificationStatus : std::uint8_t { NotRun = 0, Passed = 1, Failed = 2 };
 
 /// A validated PlanJump request.
+/// How the answer's trajectory travels (the contract's TrajectoryFormat).
+enum class TrajectoryFormat {
+  Dense,  ///< uniform samples (planner settings' output_dt_s)
+  Knots,  ///< knots of piecewise cubics (JumpModel::buildKnots)
+};
+
 struct PlanRequest {
   planner::JumpTask task;
   planner::InitialState initial;
@@ -31,6 +37,7 @@ struct PlanRequest {
   int max_verified_candidates = 0;              ///< 0 = the server's default
   bool skip_verification = false;
   std::uint64_t seed = 0;  ///< 0 = the planner settings' seed
+  TrajectoryFormat trajectory = TrajectoryFormat::Dense;
   std::string request_id;
 };
 

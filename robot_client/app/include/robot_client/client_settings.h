@@ -53,6 +53,10 @@ struct PlannerConnection {
   std::uint32_t max_evaluations = 0;  ///< DE budget sent with the request (0 = server default)
   std::uint64_t seed = 0;             ///< DE seed sent with the request (0 = server default)
   bool skip_verification = false;     ///< ask for the planner's plan without verification
+  /// Ask for the trajectory as knots (TRAJECTORY_FORMAT_KNOTS, about a fifth of the bytes),
+  /// turned into 1 kHz references here; false: dense samples (YAML `trajectory_format`:
+  /// knots | dense).
+  bool knots = true;
   /// Spread calls over every address the target resolves to (several service replicas
   /// behind a headless Service, docs/scaling.md) instead of sticking to the first.
   bool round_robin = false;
