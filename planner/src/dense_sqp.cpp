@@ -17,6 +17,8 @@ const char* toString(SqpStatus s) {
       return "stalled";
     case SqpStatus::MaxIterations:
       return "max_iterations";
+    case SqpStatus::LocallyInfeasible:
+      return "locally_infeasible";
     case SqpStatus::SmallStep:
       return "small_step";
     case SqpStatus::LineSearchFailed:
@@ -297,6 +299,7 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
   bool fresh_hessian = true;
   double stall_f = std::numeric_limits<double>::infinity();
   int stall_iter = 0;
+  int infeasible_run = 0;  // iterations in a row that looked locally infeasible
 
   // The QP at x: a_i'd + s_i >= b_i for each row.
   auto buildQp = [&]() {
@@ -366,6 +369,8 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
       std::swap(qp, qp_try);
       v_lin = v_try;
     }
+    // The linearisation sees no way to lower the violation (lin ~ actual).
+    const bool no_way_down = v > st.constraint_tolerance && v_lin >= 0.99 * v;
     const Eigen::VectorXd& d = qp.step();
     const double dnorm = d.lpNorm<Eigen::Infinity>();
     if (dnorm <= 1e-12 * (1.0 + x.lpNorm<Eigen::Infinity>())) return finish(SqpStatus::SmallStep);
@@ -416,9 +421,9 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
     }
     if (st.print)
       std::fprintf(stderr,
-                   "sqp %2d f %.6e viol %.2e (lin %.2e) rho %.1e |d| %.2e slope %.2e alpha %.3g "
-                   "radius %.2g%s%s\n",
-                   iter, f, v, v_lin, rho, dnorm, slope, alpha, radius, soc ? " soc" : "",
+                   "sqp %2d (n %d, m %d) f %.6e viol %.2e (lin %.2e) rho %.1e |d| %.2e slope %.2e "
+                   "alpha %.3g radius %.2g%s%s\n",
+                   iter, n, m, f, v, v_lin, rho, dnorm, slope, alpha, radius, soc ? " soc" : "",
                    accepted ? "" : " (no step)");
     if (!accepted) {
       if (fresh_hessian) return finish(SqpStatus::LineSearchFailed);
@@ -490,6 +495,15 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
         for (int j = 0; j < n; ++j) xt[j] = std::clamp(xt[j], p.xl[j], std::max(p.xl[j], p.xu[j]));
         evaluate(xt, ft, ct);
       }
+    }
+    // Local infeasibility: nothing feasible seen, and the violation neither fell nor was
+    // predicted to (the vertical and backflip targets out of reach: the violation settles
+    // within 5 iterations and the remaining ones cannot move it).
+    if (best_x.size() == 0 && no_way_down && sumViolation(c) >= 0.99 * v) {
+      if (st.infeasible_iterations > 0 && ++infeasible_run >= st.infeasible_iterations)
+        return finish(SqpStatus::LocallyInfeasible);
+    } else {
+      infeasible_run = 0;
     }
     // KKT at the new point with the QP's multipliers.
     stat = grad - nu;

@@ -37,8 +37,12 @@ struct DenseSqpSettings {
   double constraint_tolerance = 1e-6;  ///< max violation at which a point counts as feasible
   int stall_iterations = 3;            ///< stop when the best feasible f has not dropped 0.1 %
                                        ///< in this many iterations (0 = off)
-  double initial_penalty = 10.0;       ///< l1 penalty, times max(1, |grad f(x0)|_inf)
-  double max_penalty = 1e9;            ///< the steering update stops here
+  /// Stop when no feasible point is known and, this many iterations in a row, the linearised
+  /// constraints promised less than 1 % lower violation and the violation fell by less than
+  /// 1 %: a locally infeasible point (0 = off).
+  int infeasible_iterations = 2;
+  double initial_penalty = 10.0;  ///< l1 penalty, times max(1, |grad f(x0)|_inf)
+  double max_penalty = 1e9;       ///< the steering update stops here
   /// Initial step limit, as a fraction of each variable's range (or of max(1, |x0|) if
   /// unbounded); it doubles after full steps that reach it and shrinks to shortened ones.
   double initial_radius = 0.1;
@@ -49,13 +53,14 @@ struct DenseSqpSettings {
 
 /// Why the solver stopped.
 enum class SqpStatus {
-  Converged,         ///< KKT tolerance met at a feasible point
-  Stalled,           ///< the stall rule (stall_iterations)
-  MaxIterations,     ///< max_iterations reached
-  SmallStep,         ///< the step became negligible (e.g. a locally infeasible stationary point)
-  LineSearchFailed,  ///< no decrease of the merit along the step, even after a BFGS reset
-  EvaluationFailed,  ///< no value at the start point, or no derivatives at an iterate
-  QpFailed,          ///< the QP's Newton matrix could not be factorised
+  Converged,          ///< KKT tolerance met at a feasible point
+  Stalled,            ///< the stall rule (stall_iterations)
+  MaxIterations,      ///< max_iterations reached
+  SmallStep,          ///< the step became negligible (e.g. a locally infeasible stationary point)
+  LocallyInfeasible,  ///< the violation stopped falling and the linearisation sees no way down
+  LineSearchFailed,   ///< no decrease of the merit along the step, even after a BFGS reset
+  EvaluationFailed,   ///< no value at the start point, or no derivatives at an iterate
+  QpFailed,           ///< the QP's Newton matrix could not be factorised
 };
 const char* toString(SqpStatus s);
 

@@ -188,6 +188,35 @@ TEST(DenseSqp, InfeasibleProblemEndsNotFeasible) {
   EXPECT_TRUE(r.x.allFinite());
 }
 
+// A target out of reach (the vertical and backflip presets): the solver stops as soon as the
+// violation has settled and the linearisation sees no way down, not at max_iterations.
+TEST(DenseSqp, LocallyInfeasibleProblemStopsOnceTheViolationSettles) {
+  DenseSqpProblem p;
+  p.xl = Eigen::Vector2d::Constant(-10);
+  p.xu = Eigen::Vector2d::Constant(10);
+  p.cl = Eigen::Vector2d(-kInf, 3.0);
+  p.cu = Eigen::Vector2d(1.0, kInf);
+  p.value = [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) {
+    f = x[0] - x[1];
+    c.resize(2);
+    c << x.squaredNorm(), x[0] + x[1];
+    return true;
+  };
+  useForwardDifferences(p);
+  DenseSqpSettings st = converging();
+  st.max_iterations = 200;
+  const DenseSqpResult r = solveDenseSqp(p, Eigen::Vector2d(0.3, -2.0), st);
+  EXPECT_EQ(r.status, SqpStatus::LocallyInfeasible) << toString(r.status);
+  EXPECT_LT(r.iterations, 50);
+  EXPECT_FALSE(r.feasible);
+  // No point meets both rows (the unit disk reaches x0 + x1 = 1.41 at most). At the start both
+  // are violated (|x|^2 = 4.09, x0 + x1 = -1.7: max violation 4.7); the solver must have
+  // settled well below that.
+  EXPECT_LT(r.violation, 2.5);
+  st.infeasible_iterations = 0;
+  EXPECT_NE(solveDenseSqp(p, Eigen::Vector2d(0.3, -2.0), st).status, SqpStatus::LocallyInfeasible);
+}
+
 TEST(DenseSqp, NoValueAtTheStartIsAnEvaluationFailure) {
   DenseSqpProblem p = hs071();
   p.value = [](const Eigen::VectorXd&, double&, Eigen::VectorXd&) { return false; };
