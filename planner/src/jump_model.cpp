@@ -1364,6 +1364,15 @@ void fillPlanHeader(const Solved& S, const JumpTask& task, const InitialState& i
 }
 }  // namespace
 
+JumpOutcome JumpModel::predictedOutcome(const Eigen::Ref<const Eigen::VectorXd>& u,
+                                        const Evaluation* evaluation) const {
+  if (evaluation != nullptr && evaluation->valid && !evaluation->cut_off)
+    return evaluation->predicted;
+  Evaluation ev;
+  evaluate(u, ev);
+  return ev.predicted;
+}
+
 JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
                               const Evaluation* evaluation) const {
   Solved S;
@@ -1392,13 +1401,7 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
                             : plan.q(k - 1, w) + 0.5 * (plan.qd(k - 1, w) + plan.qd(k, w)) *
                                                      (t - std::min((k - 1) * plan.dt, S.t3));
   }
-  if (evaluation != nullptr && evaluation->valid && !evaluation->cut_off) {
-    plan.predicted = evaluation->predicted;
-  } else {
-    Evaluation ev;
-    evaluate(u, ev);
-    plan.predicted = ev.predicted;
-  }
+  plan.predicted = predictedOutcome(u, evaluation);
   return plan;
 }
 
@@ -1519,13 +1522,7 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
                             h / 6.0 * (K.qd(k - 1, w) + 4.0 * kn.wheel_mid_rate[i] + kn.row.qd[w]);
     }
   }
-  if (evaluation != nullptr && evaluation->valid && !evaluation->cut_off) {
-    plan.predicted = evaluation->predicted;
-  } else {
-    Evaluation ev;
-    evaluate(u, ev);
-    plan.predicted = ev.predicted;
-  }
+  plan.predicted = predictedOutcome(u, evaluation);
   return plan;
 }
 

@@ -299,10 +299,18 @@ double clientV0(int i) {
   return 0.1 * i;
 }
 
-// The transport's own cost on this machine, the peer of the hit figures: the same clients on
-// their own connections calling GetStats (answered in the service's reactor, no planning, a
-// ~150-byte response) as fast as they can for `seconds`.
-json benchGrpcFloor(Server& server, int clients, double seconds) {
+// What a closed loop of clients measured over its timed part.
+struct ClosedLoop {
+  std::vector<double> ms;  ///< every round trip
+  double elapsed_s = 0.0, server_cpu_ms = 0.0, client_cpu_ms = 0.0;
+  long errors = 0;
+};
+
+// `clients` threads, each on its own connection (`tag` keeps gRPC from sharing one), call
+// `call(stub, client)` back to back for `seconds` after one untimed call each; `call` returns
+// false on an error. Round trips and the server's and the clients' CPU over the timed part.
+template <class Call>
+ClosedLoop runClosedLoop(Server& server, int clients, double seconds, const char* tag, Call call) {
   std::vector<std::vector<double>> per_thread(static_cast<std::size_t>(clients));
   std::atomic<int> ready{0};
   std::atomic<bool> go{false};
@@ -311,26 +319,20 @@ json benchGrpcFloor(Server& server, int clients, double seconds) {
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
       grpc::ChannelArguments args;
-      args.SetInt("wj.bench.floor_client", i);  // one connection per client
+      args.SetMaxReceiveMessageSize(16 * 1024 * 1024);
+      args.SetInt(tag, i);
       auto stub = v1::JumpPlanner::NewStub(
           grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), args));
-      v1::GetStatsResponse response;
-      {
-        grpc::ClientContext ctx;
-        ctx.set_deadline(std::chrono::system_clock::now() + 10s);
-        (void)stub->GetStats(&ctx, v1::GetStatsRequest{}, &response);
-      }
+      (void)call(*stub, i);  // connect before the clock starts
       ++ready;
       while (!go.load()) std::this_thread::yield();
       const auto end = Clock::now() + std::chrono::duration<double>(seconds);
       auto& out = per_thread[static_cast<std::size_t>(i)];
       while (Clock::now() < end) {
-        grpc::ClientContext ctx;
-        ctx.set_deadline(std::chrono::system_clock::now() + 5s);
         const auto t0 = Clock::now();
-        const grpc::Status st = stub->GetStats(&ctx, v1::GetStatsRequest{}, &response);
+        const bool ok = call(*stub, i);
         out.push_back(msSince(t0));
-        if (!st.ok()) ++errors;
+        if (!ok) ++errors;
       }
     });
   }
@@ -339,19 +341,40 @@ json benchGrpcFloor(Server& server, int clients, double seconds) {
   const auto t0 = Clock::now();
   go = true;
   for (auto& t : threads) t.join();
-  const double elapsed_s = msSince(t0) / 1e3;
-  const double server_cpu_ms = server.cpuMs() - server_cpu0;
-  const double client_cpu_ms = selfCpuMs() - client_cpu0;
-  std::vector<double> all;
-  for (const auto& v : per_thread) all.insert(all.end(), v.begin(), v.end());
-  const auto n = static_cast<double>(std::max<std::size_t>(all.size(), 1));
-  json j = latencyJson(all);
+  ClosedLoop r;
+  r.elapsed_s = msSince(t0) / 1e3;
+  r.server_cpu_ms = server.cpuMs() - server_cpu0;
+  r.client_cpu_ms = selfCpuMs() - client_cpu0;
+  for (const auto& v : per_thread) r.ms.insert(r.ms.end(), v.begin(), v.end());
+  r.errors = errors.load();
+  return r;
+}
+
+// Throughput and CPU per request of a closed loop, with its latency percentiles.
+json loopJson(const ClosedLoop& r) {
+  const auto n = static_cast<double>(std::max<std::size_t>(r.ms.size(), 1));
+  json j = latencyJson(r.ms);
+  j["duration_s"] = r.elapsed_s;
+  j["throughput_req_s"] = static_cast<double>(r.ms.size()) / r.elapsed_s;
+  j["errors"] = r.errors;
+  j["server_cpu_us_per_request"] = r.server_cpu_ms * 1e3 / n;
+  j["client_cpu_us_per_request"] = r.client_cpu_ms * 1e3 / n;
+  j["cpu_cores_busy"] = (r.server_cpu_ms + r.client_cpu_ms) / 1e3 / r.elapsed_s;
+  return j;
+}
+
+// The transport's own cost on this machine, the peer of the hit figures: the same clients on
+// their own connections calling GetStats (answered in the service's reactor, no planning, a
+// ~150-byte response) as fast as they can for `seconds`.
+json benchGrpcFloor(Server& server, int clients, double seconds) {
+  json j = loopJson(runClosedLoop(
+      server, clients, seconds, "wj.bench.floor_client", [](v1::JumpPlanner::Stub& stub, int) {
+        grpc::ClientContext ctx;
+        ctx.set_deadline(std::chrono::system_clock::now() + 5s);
+        v1::GetStatsResponse response;
+        return stub.GetStats(&ctx, v1::GetStatsRequest{}, &response).ok();
+      }));
   j["rpc"] = "GetStats";
-  j["throughput_req_s"] = static_cast<double>(all.size()) / elapsed_s;
-  j["errors"] = errors.load();
-  j["server_cpu_us_per_request"] = server_cpu_ms * 1e3 / n;
-  j["client_cpu_us_per_request"] = client_cpu_ms * 1e3 / n;
-  j["cpu_cores_busy"] = (server_cpu_ms + client_cpu_ms) / 1e3 / elapsed_s;
   return j;
 }
 
@@ -376,44 +399,21 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
       if (!r.ok()) throw std::runtime_error("warm-up plan failed: " + r.status.error_message());
     }
   }
-  std::vector<std::vector<double>> per_thread(static_cast<std::size_t>(clients));
-  std::atomic<int> ready{0};
-  std::atomic<bool> go{false};
-  std::atomic<long> errors{0}, not_hits{0}, sized{0}, bytes_total{0}, bytes_min{1L << 40},
-      bytes_max{0};
-  std::vector<std::thread> threads;
-  for (int i = 0; i < clients; ++i) {
-    threads.emplace_back([&, i] {
-      grpc::ChannelArguments args;
-      args.SetMaxReceiveMessageSize(16 * 1024 * 1024);
-      args.SetInt("wj.bench.client", i);  // one connection per client, not a shared one
-      auto stub = v1::JumpPlanner::NewStub(
-          grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), args));
-      auto& generator = generators[static_cast<std::size_t>(i)];
-      v1::PlanJumpResponse response;
-      {  // connect before the clock starts
-        grpc::ClientContext ctx;
-        ctx.set_deadline(std::chrono::system_clock::now() + 10s);
-        (void)stub->PlanJump(&ctx, generator.centre(), &response);
-      }
-      ++ready;
-      while (!go.load()) std::this_thread::yield();
-      const auto end = Clock::now() + std::chrono::duration<double>(seconds);
-      auto& out = per_thread[static_cast<std::size_t>(i)];
-      long answered = 0;
-      while (Clock::now() < end) {
-        const v1::PlanJumpRequest& request = generator.next();
+  std::atomic<long> not_hits{0}, sized{0}, bytes_total{0}, bytes_min{1L << 40}, bytes_max{0};
+  std::vector<long> answered(static_cast<std::size_t>(clients), 0);
+  std::vector<v1::PlanJumpResponse> responses(static_cast<std::size_t>(clients));
+  const ClosedLoop loop = runClosedLoop(
+      server, clients, seconds, "wj.bench.client", [&](v1::JumpPlanner::Stub& stub, int i) {
+        auto& generator = generators[static_cast<std::size_t>(i)];
+        auto& response = responses[static_cast<std::size_t>(i)];
         grpc::ClientContext ctx;
         ctx.set_deadline(std::chrono::system_clock::now() + 5s);
-        const auto t0 = Clock::now();
-        const grpc::Status s = stub->PlanJump(&ctx, request, &response);
-        out.push_back(msSince(t0));
-        if (!s.ok()) {
-          ++errors;
-          continue;
-        }
+        const bool first = answered[static_cast<std::size_t>(i)]++ == 0;
+        const grpc::Status s =
+            stub.PlanJump(&ctx, first ? generator.centre() : generator.next(), &response);
+        if (!s.ok() || first) return s.ok();
         if (response.source() != v1::PLAN_SOURCE_CACHE_HIT) ++not_hits;
-        if (++answered % 16 != 1) continue;  // sizes of every 16th answer: ByteSizeLong costs
+        if (answered[static_cast<std::size_t>(i)] % 16 != 2) return true;  // every 16th: sized
         ++sized;
         const auto n = static_cast<long>(response.ByteSizeLong());
         bytes_total += n;
@@ -423,39 +423,22 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
         seen = bytes_max.load();
         while (n > seen && !bytes_max.compare_exchange_weak(seen, n)) {
         }
-      }
-    });
-  }
-  while (ready.load() < clients) std::this_thread::sleep_for(1ms);
-  const double server_cpu0 = server.cpuMs(), client_cpu0 = selfCpuMs();
-  const auto t0 = Clock::now();
-  go = true;
-  for (auto& t : threads) t.join();
-  const double elapsed_s = msSince(t0) / 1e3;
-  const double server_cpu_ms = server.cpuMs() - server_cpu0;
-  const double client_cpu_ms = selfCpuMs() - client_cpu0;
-  std::vector<double> all;
-  for (const auto& v : per_thread) all.insert(all.end(), v.begin(), v.end());
-  const auto n = static_cast<double>(std::max<std::size_t>(all.size(), 1));
-  const long answered = sized.load();
-  json j = latencyJson(all);
+        return true;
+      });
+  const long sampled = sized.load();
+  const double throughput = static_cast<double>(loop.ms.size()) / loop.elapsed_s;
+  json j = loopJson(loop);
   j["clients"] = clients;
   j["output_dt_s"] = config.planner.output_dt_s;
-  j["duration_s"] = elapsed_s;
-  j["throughput_req_s"] = static_cast<double>(all.size()) / elapsed_s;
-  j["errors"] = errors.load();
   j["not_hits"] = not_hits.load();
-  j["errors_or_not_hits"] = errors.load() + not_hits.load();
-  j["response_bytes"] = answered > 0 ? bytes_total.load() / answered : 0;
-  j["response_bytes_min"] = answered > 0 ? bytes_min.load() : 0;
+  j["errors_or_not_hits"] = loop.errors + not_hits.load();
+  j["response_bytes"] = sampled > 0 ? bytes_total.load() / sampled : 0;
+  j["response_bytes_min"] = sampled > 0 ? bytes_min.load() : 0;
   j["response_bytes_max"] = bytes_max.load();
-  j["server_cpu_us_per_request"] = server_cpu_ms * 1e3 / n;
-  j["client_cpu_us_per_request"] = client_cpu_ms * 1e3 / n;
-  j["cpu_cores_busy"] = (server_cpu_ms + client_cpu_ms) / 1e3 / elapsed_s;
   j["target_p99_ms"] = 1.0;
   j["target_throughput_req_s"] = 10000.0;
-  j["meets_p99_target"] = percentile(all, 0.99) <= 1.0;
-  j["meets_throughput_target"] = static_cast<double>(all.size()) / elapsed_s >= 10000.0;
+  j["meets_p99_target"] = percentile(loop.ms, 0.99) <= 1.0;
+  j["meets_throughput_target"] = throughput >= 10000.0;
   j["grpc_floor"] = benchGrpcFloor(server, clients, seconds);
   return j;
 }

@@ -167,7 +167,8 @@ TEST(DenseSqp, Hs006NonlinearEquality) {
 }
 
 // x1^2 + x2^2 <= 1 and x1 + x2 >= 3 have no common point.
-TEST(DenseSqp, InfeasibleProblemEndsNotFeasible) {
+// |x|^2 <= 1 and x0 + x1 >= 3: no point meets both (the unit disk reaches x0 + x1 = 1.41).
+DenseSqpProblem outsideTheUnitDisk() {
   DenseSqpProblem p;
   p.xl = Eigen::Vector2d::Constant(-10);
   p.xu = Eigen::Vector2d::Constant(10);
@@ -180,6 +181,11 @@ TEST(DenseSqp, InfeasibleProblemEndsNotFeasible) {
     return true;
   };
   useForwardDifferences(p);
+  return p;
+}
+
+TEST(DenseSqp, InfeasibleProblemEndsNotFeasible) {
+  const DenseSqpProblem p = outsideTheUnitDisk();
   const DenseSqpResult r = solveDenseSqp(p, Eigen::Vector2d(0.3, -2.0), converging());
   EXPECT_FALSE(r.feasible);
   EXPECT_GT(r.violation, 0.1);
@@ -191,18 +197,7 @@ TEST(DenseSqp, InfeasibleProblemEndsNotFeasible) {
 // A target out of reach (the vertical and backflip presets): the solver stops as soon as the
 // violation has settled and the linearisation sees no way down, not at max_iterations.
 TEST(DenseSqp, LocallyInfeasibleProblemStopsOnceTheViolationSettles) {
-  DenseSqpProblem p;
-  p.xl = Eigen::Vector2d::Constant(-10);
-  p.xu = Eigen::Vector2d::Constant(10);
-  p.cl = Eigen::Vector2d(-kInf, 3.0);
-  p.cu = Eigen::Vector2d(1.0, kInf);
-  p.value = [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) {
-    f = x[0] - x[1];
-    c.resize(2);
-    c << x.squaredNorm(), x[0] + x[1];
-    return true;
-  };
-  useForwardDifferences(p);
+  const DenseSqpProblem p = outsideTheUnitDisk();
   DenseSqpSettings st = converging();
   st.max_iterations = 200;
   const DenseSqpResult r = solveDenseSqp(p, Eigen::Vector2d(0.3, -2.0), st);

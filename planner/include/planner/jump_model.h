@@ -138,6 +138,9 @@ class JumpModel {
   static double standingComHeight(const model::RobotModel& robot, const Eigen::VectorXd& q);
 
  private:
+  // `evaluation`'s predicted outcome if it is this model's full evaluation of u, else u's.
+  JumpOutcome predictedOutcome(const Eigen::Ref<const Eigen::VectorXd>& u,
+                               const Evaluation* evaluation) const;
   friend struct JumpModelAccess;
   friend struct JumpModelPlanRows;
   struct Geometry {

@@ -165,21 +165,8 @@ std::string convertKnots(const v1::Plan& p, planner::JumpPlan& plan) {
   return "";
 }
 
-}  // namespace
-
-std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner::JumpPlan& plan) {
-  const v1::Plan& p = response.plan();
-  if (p.knots().t_s_size() > 0) {
-    if (std::string problem = convertKnots(p, plan); !problem.empty()) return problem;
-    const int n = plan.numSamples();
-    plan.initial = plan.centroidal.front();
-    plan.q_initial = plan.q.row(0).transpose();
-    plan.q_landing = plan.q.row(n - 1).transpose();
-    plan.decision =
-        Eigen::Map<const Eigen::VectorXd>(p.decision_vector().data(), p.decision_vector_size());
-    plan.predicted = fromProto(response.predicted());
-    return sim::checkPlan(plan);
-  }
+// A plan sent as dense samples.
+std::string convertDense(const v1::Plan& p, planner::JumpPlan& plan) {
   const v1::JointTrajectory& jt = p.joints();
   const int n = static_cast<int>(jt.num_samples());
   const std::size_t values = static_cast<std::size_t>(n) * model::kNumJoints;
@@ -207,6 +194,17 @@ std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner
   for (const v1::CentroidalSample& c : p.centroidal_trajectory())
     plan.centroidal.push_back({c.com_x_m(), c.com_z_m(), c.pitch_rad(), c.com_vx_m_s(),
                                c.com_vz_m_s(), c.pitch_rate_rad_s()});
+  return "";
+}
+
+}  // namespace
+
+std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner::JumpPlan& plan) {
+  const v1::Plan& p = response.plan();
+  const std::string problem =
+      p.knots().t_s_size() > 0 ? convertKnots(p, plan) : convertDense(p, plan);
+  if (!problem.empty()) return problem;
+  const int n = plan.numSamples();
   plan.initial = plan.centroidal.front();
   plan.q_initial = plan.q.row(0).transpose();
   plan.q_landing = plan.q.row(n - 1).transpose();
