@@ -1386,10 +1386,14 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
   plan.q.setZero(N, model::kNumJoints);
   plan.qd.setZero(N, model::kNumJoints);
   plan.tau.setZero(N, model::kNumJoints);
-  Eigen::Vector2d c_guess = c0_;
+  Eigen::Vector2d c_guess = c0_, c_before = c0_;
   PlanRow row;
   for (int k = 0; k < N; ++k) {
     const double t = std::min(k * plan.dt, S.t3);
+    // The CoM offset's iteration starts from its linear extrapolation over the last two samples.
+    const Eigen::Vector2d c_last = c_guess;
+    if (k >= 2) c_guess = 2.0 * c_last - c_before;
+    c_before = c_last;
     JumpModelPlanRows::row(*this, S, t, segmentAt(S, t), c_guess, row);
     plan.centroidal[k] = row.s;
     plan.q.row(k) = row.q.transpose();
