@@ -1,4 +1,4 @@
-// plan_jump: plans one jump with the DE + Ipopt planner and prints the result (text or JSON).
+// plan_jump: plans one jump with the DE + polish planner and prints the result (text or JSON).
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <iostream>
@@ -33,7 +33,7 @@ std::vector<double> parseList(const std::string& text, std::size_t n, const std:
 
 int main(int argc, char** argv) {
   using namespace wj::planner;
-  CLI::App app{"Plans a jump of the wheeled-legged robot (DE over a planar rigid body + Ipopt)."};
+  CLI::App app{"Plans a jump of the wheeled-legged robot (DE over a planar rigid body + SQP or Ipopt polish)."};
   std::string task_name, target_text, event_text = "apex", obstacle_text, config, mode_text;
   std::optional<double> v0;
   std::uint64_t seed = 1;
@@ -51,7 +51,7 @@ int main(int argc, char** argv) {
   app.add_option("--max-evals", max_evals, "DE evaluation budget")
       ->check(CLI::Range(100, 10000000));
   app.add_option("--config", config, "planner settings YAML (defaults if omitted)");
-  app.add_flag("--no-polish", no_polish, "skip the Ipopt polish");
+  app.add_flag("--no-polish", no_polish, "skip the polish (polish.solver: sqp or ipopt)");
   app.add_flag("--json", json, "print JSON");
   CLI11_PARSE(app, argc, argv);
 
