@@ -33,7 +33,7 @@ std::vector<double> parseList(const std::string& text, std::size_t n, const std:
 
 int main(int argc, char** argv) {
   using namespace wj::planner;
-  CLI::App app{"Plans a jump of the wheeled-legged robot (DE over a planar rigid body + SQP or Ipopt polish)."};
+  CLI::App app{"Plans a jump of the wheeled-legged robot (DE over a planar rigid body + polish)."};
   std::string task_name, target_text, event_text = "apex", obstacle_text, config, mode_text;
   std::optional<double> v0;
   std::uint64_t seed = 1;
