@@ -214,6 +214,30 @@ struct Sample {
   PairSample hind, front;
 };
 
+namespace {
+using Joints = Eigen::Matrix<double, model::kNumJoints, 1>;
+
+// One instant of the references, except the wheel joint angles, which the caller integrates
+// from the wheel rates.
+struct PlanRow {
+  PlanarState s;
+  Joints q = Joints::Zero(), qd = Joints::Zero(), tau = Joints::Zero();
+};
+
+enum class Segment { FourWheels, HindOnly, Flight };
+
+constexpr std::array<int, model::kNumLegs> kWheelJoints = {
+    model::jointIndex(model::Leg::LF, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::RF, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::LH, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::RH, model::JointKind::Wheel)};
+
+Segment segmentAt(const Solved& S, double t) {
+  if (t > S.t2) return Segment::Flight;
+  return S.two_step && t > S.t1 ? Segment::HindOnly : Segment::FourWheels;
+}
+}  // namespace
+
 struct JumpModelAccess {
   // Solves the take-off for candidate u and, with `flight`, the flight attitude (otherwise
   // solveFlight() completes S later). Returns false if u has no valid trajectory.
@@ -894,6 +918,62 @@ struct JumpModelAccess {
     // Apex targets must still land upright (pitch a multiple of 2 pi at touchdown).
     e[3] = tgt.event == TargetEvent::Apex ? wrapToPi(S.touchdown.pitch) : 0.0;
   }
+
+  // The references at time t in `segment` (the segment's own values at its boundaries).
+  // `c_guess` warm-starts the contact sample's CoM-offset iteration and is updated.
+  static void planRow(const JumpModel& M, const Solved& S, double t, Segment segment,
+                      Eigen::Vector2d& c_guess, PlanRow& out) {
+    using model::JointKind;
+    using model::Leg;
+    std::array<Eigen::Vector2d, 2> q, qd;
+    std::array<double, 2> wheel_rate{}, wheel_tau{}, haa_fz{};
+    out.tau.setZero();
+    if (segment != Segment::Flight) {
+      Sample smp;
+      contactSample(M, S, t, smp, segment == Segment::HindOnly, c_guess,
+                    /*converge=*/true);
+      c_guess = smp.c;
+      out.s = smp.s;
+      int i = 0;
+      for (const PairSample* p : {&smp.hind, &smp.front}) {
+        q[i] = p->q;
+        qd[i] = p->contact ? p->qd : Eigen::Vector2d::Zero();
+        wheel_rate[i] = p->wheel_rate;
+        wheel_tau[i] = p->contact ? p->wheel_tau : 0.0;
+        haa_fz[i] = p->contact ? p->haa_fz : 0.0;
+        ++i;
+      }
+      for (int pair = 0; pair < 2; ++pair) {
+        const PairSample& p = pair == 0 ? smp.hind : smp.front;
+        for (const Leg leg : model::kLegs) {
+          if ((pair == 0) == model::isFront(leg)) continue;
+          out.tau[model::jointIndex(leg, JointKind::HFE)] = p.contact ? p.tau[0] : 0.0;
+          out.tau[model::jointIndex(leg, JointKind::KFE)] = p.contact ? p.tau[1] : 0.0;
+        }
+      }
+    } else {
+      out.s = flightState(M, S, t);
+      for (int pair = 0; pair < 2; ++pair) {
+        q[pair] = flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
+        wheel_rate[pair] = flightWheelRate(M, S, pair, t);
+      }
+    }
+    for (const Leg leg : model::kLegs) {
+      const int pair = model::isFront(leg) ? 1 : 0;
+      const int haa = model::jointIndex(leg, JointKind::HAA);
+      const double lever =
+          M.robot_.legGeometry(leg).p_HT.y() + M.robot_.legGeometry(leg).wheel_lateral_offset;
+      out.q[haa] = M.init_input_.q[haa];
+      out.qd[haa] = 0.0;
+      out.tau[haa] = -lever * haa_fz[pair];
+      out.q[haa + 1] = q[pair][0];
+      out.q[haa + 2] = q[pair][1];
+      out.qd[haa + 1] = qd[pair][0];
+      out.qd[haa + 2] = qd[pair][1];
+      out.qd[haa + 3] = wheel_rate[pair];
+      out.tau[haa + 3] = wheel_tau[pair];
+    }
+  }
 };
 
 JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& settings,
@@ -1248,88 +1328,6 @@ Eigen::VectorXd JumpModel::decisionVector(const Eigen::Ref<const Eigen::VectorXd
 }
 
 namespace {
-using Joints = Eigen::Matrix<double, model::kNumJoints, 1>;
-
-// One instant of the references, except the wheel joint angles, which the caller integrates
-// from the wheel rates.
-struct PlanRow {
-  PlanarState s;
-  Joints q = Joints::Zero(), qd = Joints::Zero(), tau = Joints::Zero();
-};
-
-enum class Segment { FourWheels, HindOnly, Flight };
-
-constexpr std::array<int, model::kNumLegs> kWheelJoints = {
-    model::jointIndex(model::Leg::LF, model::JointKind::Wheel),
-    model::jointIndex(model::Leg::RF, model::JointKind::Wheel),
-    model::jointIndex(model::Leg::LH, model::JointKind::Wheel),
-    model::jointIndex(model::Leg::RH, model::JointKind::Wheel)};
-
-Segment segmentAt(const Solved& S, double t) {
-  if (t > S.t2) return Segment::Flight;
-  return S.two_step && t > S.t1 ? Segment::HindOnly : Segment::FourWheels;
-}
-}  // namespace
-
-// The references at time t in `segment` (the segment's own values at its boundaries).
-// `c_guess` warm-starts the contact sample's CoM-offset iteration and is updated.
-struct JumpModelPlanRows {
-  static void row(const JumpModel& M, const Solved& S, double t, Segment segment,
-                  Eigen::Vector2d& c_guess, PlanRow& out) {
-    using model::JointKind;
-    using model::Leg;
-    std::array<Eigen::Vector2d, 2> q, qd;
-    std::array<double, 2> wheel_rate{}, wheel_tau{}, haa_fz{};
-    out.tau.setZero();
-    if (segment != Segment::Flight) {
-      Sample smp;
-      JumpModelAccess::contactSample(M, S, t, smp, segment == Segment::HindOnly, c_guess,
-                                     /*converge=*/true);
-      c_guess = smp.c;
-      out.s = smp.s;
-      int i = 0;
-      for (const PairSample* p : {&smp.hind, &smp.front}) {
-        q[i] = p->q;
-        qd[i] = p->contact ? p->qd : Eigen::Vector2d::Zero();
-        wheel_rate[i] = p->wheel_rate;
-        wheel_tau[i] = p->contact ? p->wheel_tau : 0.0;
-        haa_fz[i] = p->contact ? p->haa_fz : 0.0;
-        ++i;
-      }
-      for (int pair = 0; pair < 2; ++pair) {
-        const PairSample& p = pair == 0 ? smp.hind : smp.front;
-        for (const Leg leg : model::kLegs) {
-          if ((pair == 0) == model::isFront(leg)) continue;
-          out.tau[model::jointIndex(leg, JointKind::HFE)] = p.contact ? p.tau[0] : 0.0;
-          out.tau[model::jointIndex(leg, JointKind::KFE)] = p.contact ? p.tau[1] : 0.0;
-        }
-      }
-    } else {
-      out.s = JumpModelAccess::flightState(M, S, t);
-      for (int pair = 0; pair < 2; ++pair) {
-        q[pair] = JumpModelAccess::flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
-        wheel_rate[pair] = JumpModelAccess::flightWheelRate(M, S, pair, t);
-      }
-    }
-    for (const Leg leg : model::kLegs) {
-      const int pair = model::isFront(leg) ? 1 : 0;
-      const int haa = model::jointIndex(leg, JointKind::HAA);
-      const double lever =
-          M.robot_.legGeometry(leg).p_HT.y() + M.robot_.legGeometry(leg).wheel_lateral_offset;
-      out.q[haa] = M.init_input_.q[haa];
-      out.qd[haa] = 0.0;
-      out.tau[haa] = -lever * haa_fz[pair];
-      out.q[haa + 1] = q[pair][0];
-      out.q[haa + 2] = q[pair][1];
-      out.qd[haa + 1] = qd[pair][0];
-      out.qd[haa + 2] = qd[pair][1];
-      out.qd[haa + 3] = wheel_rate[pair];
-      out.tau[haa + 3] = wheel_tau[pair];
-    }
-  }
-};
-
-namespace {
 // The plan's phase times, force polynomials, postures and decision vector: all but the sampled
 // trajectory.
 void fillPlanHeader(const Solved& S, const JumpTask& task, const InitialState& init,
@@ -1394,7 +1392,7 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
     const Eigen::Vector2d c_last = c_guess;
     if (k >= 2) c_guess = 2.0 * c_last - c_before;
     c_before = c_last;
-    JumpModelPlanRows::row(*this, S, t, segmentAt(S, t), c_guess, row);
+    JumpModelAccess::planRow(*this, S, t, segmentAt(S, t), c_guess, row);
     plan.centroidal[k] = row.s;
     plan.q.row(k) = row.q.transpose();
     plan.qd.row(k) = row.qd.transpose();
@@ -1470,7 +1468,7 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
   auto refine = [&](auto&& self, const Knot& a, const Knot& b) -> void {
     Knot m{0.5 * (a.t + b.t), a.segment, {}, {}};
     Eigen::Vector2d c_mid = c_guess;
-    JumpModelPlanRows::row(*this, S, m.t, m.segment, c_mid, m.row);
+    JumpModelAccess::planRow(*this, S, m.t, m.segment, c_mid, m.row);
     if (b.t - a.t > 2.0 * min_dt && !accurate(a, m, b)) {
       self(self, a, m);
       self(self, m, b);
@@ -1491,12 +1489,12 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
     if (continues) {
       prev = knots.back();
     } else {
-      JumpModelPlanRows::row(*this, S, p.a, p.segment, c_guess, prev.row);
+      JumpModelAccess::planRow(*this, S, p.a, p.segment, c_guess, prev.row);
       knots.push_back(prev);
     }
     for (int k = 1; k <= n; ++k) {
       Knot next{k == n ? p.b : p.a + (p.b - p.a) * k / n, p.segment, {}, {}};
-      JumpModelPlanRows::row(*this, S, next.t, next.segment, c_guess, next.row);
+      JumpModelAccess::planRow(*this, S, next.t, next.segment, c_guess, next.row);
       refine(refine, prev, next);
       prev = next;
     }
@@ -1519,11 +1517,13 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
     // boundary.
     for (int i = 0; i < 4; ++i) {
       const int w = kWheelJoints[i];
-      const double h = k == 0 ? 0.0 : kn.t - knots[k - 1].t;
-      K.q(k, w) = k == 0 || h <= 0.0
-                      ? (k == 0 ? init_input_.q[w] : K.q(k - 1, w))
-                      : K.q(k - 1, w) +
-                            h / 6.0 * (K.qd(k - 1, w) + 4.0 * kn.wheel_mid_rate[i] + kn.row.qd[w]);
+      if (k == 0) {
+        K.q(k, w) = init_input_.q[w];
+        continue;
+      }
+      const double h = kn.t - knots[k - 1].t;  // 0 at a phase boundary's second knot
+      K.q(k, w) =
+          K.q(k - 1, w) + h / 6.0 * (K.qd(k - 1, w) + 4.0 * kn.wheel_mid_rate[i] + kn.row.qd[w]);
     }
   }
   plan.predicted = predictedOutcome(u, evaluation);

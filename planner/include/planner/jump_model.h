@@ -142,7 +142,6 @@ class JumpModel {
   JumpOutcome predictedOutcome(const Eigen::Ref<const Eigen::VectorXd>& u,
                                const Evaluation* evaluation) const;
   friend struct JumpModelAccess;
-  friend struct JumpModelPlanRows;
   struct Geometry {
     Eigen::Vector2d hfe_b = Eigen::Vector2d::Zero();  ///< HFE axis in the base frame, x-z [m]
     double haa_lever = 0.0;  ///< lateral offset HAA axis -> wheel plane, left leg [m]

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <future>
 #include <sstream>
+#include <stdexcept>
 
 #include "planner/plan_knots.h"
 #include "planner_client/planner_client.h"
@@ -160,8 +161,11 @@ std::string convertKnots(const v1::Plan& p, planner::JumpPlan& plan) {
     const float* c = k.centroidal().data() + 6 * i;
     K.centroidal[static_cast<std::size_t>(i)] = {c[0], c[1], c[2], c[3], c[4], c[5]};
   }
-  if (std::string problem = planner::checkKnots(plan); !problem.empty()) return problem;
-  planner::densify(plan, kDenseDt);
+  try {
+    planner::densify(plan, kDenseDt);  // checks the knots first (planner::checkKnots)
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
   return "";
 }
 
