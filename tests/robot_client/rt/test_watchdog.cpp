@@ -15,7 +15,7 @@ using namespace std::chrono_literals;
 
 WatchdogSettings shortTimeout() {
   WatchdogSettings s;
-  s.timeout = 20ms;
+  s.timeout = 100ms;  // long against the 1 ms kicks, so a stalled test thread cannot trip it
   s.check_period = 1ms;
   return s;
 }
@@ -38,18 +38,20 @@ TEST(Watchdog, TripsOnceWhenKicksStop) {
   std::atomic<int> trips{0};
   Watchdog dog(shortTimeout(), [&] { trips.fetch_add(1); });
   dog.start();
-  for (int i = 0; i < 30; ++i) {
+  for (int i = 0; i < 29; ++i) {
     dog.kick();
     std::this_thread::sleep_for(1ms);
   }
-  EXPECT_FALSE(dog.tripped());
-  // Kicks stop: the trip comes within a generous bound, and only once.
-  const auto t0 = std::chrono::steady_clock::now();
-  while (!dog.tripped() && std::chrono::steady_clock::now() - t0 < 2s)
+  // Kicks stop: the trip comes within a generous bound, never before the timeout after the last
+  // kick (measured from just before it, so a stalled test thread cannot make it look early),
+  // and only once.
+  const auto last_kick = std::chrono::steady_clock::now();
+  dog.kick();
+  while (!dog.tripped() && std::chrono::steady_clock::now() - last_kick < 5s)
     std::this_thread::sleep_for(1ms);
-  const auto waited = std::chrono::steady_clock::now() - t0;
+  const auto waited = std::chrono::steady_clock::now() - last_kick;
   EXPECT_TRUE(dog.tripped());
-  EXPECT_GE(waited, 15ms);
+  EXPECT_GE(waited, shortTimeout().timeout);
   std::this_thread::sleep_for(100ms);
   dog.stop();
   EXPECT_EQ(trips.load(), 1);
