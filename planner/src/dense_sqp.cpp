@@ -46,6 +46,9 @@ bool finite(double bound) {
 //   w.z = mu,  s.y = mu,
 // with slacks w, s and multipliers z, y all > 0. The slacks and multipliers are eliminated
 // row by row, which leaves one n x n system (B + A' D^-1 A) dd = r per solve (D diagonal).
+// Relative accuracy of a QP solution: the SQP's own tolerances are 1e-6.
+constexpr double kQpTolerance = 1e-9;
+
 class DenseQp {
  public:
   void resize(int n, int rows) {
@@ -64,6 +67,7 @@ class DenseQp {
   // the iteration limit ends the solve first (the SQP's line search judges it).
   bool solve(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, const Eigen::MatrixXd& A,
              const Eigen::VectorXd& b, const Eigen::VectorXd& rho, int max_iterations) {
+    ++solves;
     d_.setZero();
     for (int i = 0; i < rows_; ++i) {
       const double r0 = -b[i];  // a_i'd - b_i at d = 0
@@ -81,8 +85,14 @@ class DenseQp {
     }
     int count = rows_;
     for (int i = 0; i < rows_; ++i) count += rho[i] > 0 ? 1 : 0;
-    const double scale = 1.0 + std::max(g.lpNorm<Eigen::Infinity>(), b.lpNorm<Eigen::Infinity>());
+    // Residuals relative to the data they are made of: the primal rows to b, stationarity and
+    // the elastic rows to g and the penalties (the multipliers of elastic rows live in
+    // [0, rho]), complementarity to both.
+    const double primal_scale = 1.0 + b.lpNorm<Eigen::Infinity>();
+    const double dual_scale =
+        1.0 + std::max(g.lpNorm<Eigen::Infinity>(), rho.lpNorm<Eigen::Infinity>());
     for (int it = 0; it < max_iterations; ++it) {
+      ++iterations;
       rd_.noalias() = B * d_;
       rd_ += g;
       rd_.noalias() -= A.transpose() * z_;
@@ -95,15 +105,17 @@ class DenseQp {
         mu += w_[i] * z_[i] + (el ? s_[i] * y_[i] : 0.0);
       }
       mu /= std::max(1, count);
-      if (rd_.lpNorm<Eigen::Infinity>() <= 1e-10 * scale &&
-          rp_.lpNorm<Eigen::Infinity>() <= 1e-10 * scale &&
-          rs_.lpNorm<Eigen::Infinity>() <= 1e-10 * scale && mu <= 1e-12 * scale)
+      if (rd_.lpNorm<Eigen::Infinity>() <= kQpTolerance * dual_scale &&
+          rp_.lpNorm<Eigen::Infinity>() <= kQpTolerance * primal_scale &&
+          rs_.lpNorm<Eigen::Infinity>() <= kQpTolerance * dual_scale &&
+          mu <= 0.1 * kQpTolerance * primal_scale * dual_scale)
         break;
       // The Newton matrix (shared by the predictor and the corrector).
       for (int i = 0; i < rows_; ++i) {
         D_[i] = w_[i] / z_[i] + (rho[i] > 0 ? s_[i] / y_[i] : 0.0);
-        AD_.row(i) = A.row(i) / D_[i];
+        tmp_rows_[i] = 1.0 / D_[i];
       }
+      AD_.noalias() = tmp_rows_.asDiagonal() * A;  // column by column (A is column-major)
       M_ = B;
       M_.noalias() += AD_.transpose() * A;
       llt_.compute(M_);
@@ -146,6 +158,7 @@ class DenseQp {
     return true;
   }
 
+  int solves = 0, iterations = 0;  // counters for diagnosis
   const Eigen::VectorXd& step() const { return d_; }
   const Eigen::VectorXd& multipliers() const { return z_; }
 
@@ -406,10 +419,10 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
         // c(x + d) - c(x) - J d and take the corrected step instead.
         dc = ct - c;
         dc.noalias() -= J * d;
-        for (int r = 0; r < nr; ++r) {
-          b_soc[r] = b[r];
-          if (rows[r].kind == QpRow::ConstraintLower) b_soc[r] -= dc[rows[r].index];
-          if (rows[r].kind == QpRow::ConstraintUpper) b_soc[r] += dc[rows[r].index];
+        for (int k2 = 0; k2 < nr; ++k2) {
+          b_soc[k2] = b[k2];
+          if (rows[k2].kind == QpRow::ConstraintLower) b_soc[k2] -= dc[rows[k2].index];
+          if (rows[k2].kind == QpRow::ConstraintUpper) b_soc[k2] += dc[rows[k2].index];
         }
         if (qp_try.solve(B, grad, A, b_soc, rho_rows, st.qp_max_iterations) &&
             tryPoint(qp_try.step(), 1.0)) {
@@ -518,7 +531,9 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
     // a feasible point found by an early probe would otherwise stop the solve while the iterates
     // are still on their way to the optimum.
     if (best_x.size() > 0) {
-      if (best_f < stall_f - 1e-3 * std::abs(stall_f) || maxViolation(c) > 1e-3) {
+      // (The first feasible point starts the count: stall_f is +inf until then.)
+      if (!std::isfinite(stall_f) || best_f < stall_f - 1e-3 * std::abs(stall_f) ||
+          maxViolation(c) > 1e-3) {
         stall_f = std::min(stall_f, best_f);
         stall_iter = iter;
       }

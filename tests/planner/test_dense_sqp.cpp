@@ -166,6 +166,32 @@ TEST(DenseSqp, Hs006NonlinearEquality) {
   EXPECT_NEAR(r.x[1], 1.0, 1e-4);
 }
 
+// The stall rule (the polish's: 3 iterations without a 0.1 % drop of the best feasible f)
+// counts from the first feasible point. Here every point the solver visits is feasible (a
+// linear equality, met at the start and kept by every step), and the step limit (0.1, doubling)
+// makes the way to the optimum (5, 5) take several iterations of steadily falling f.
+TEST(DenseSqp, StallCountStartsAtTheFirstFeasiblePoint) {
+  DenseSqpProblem p;
+  p.xl = Eigen::Vector2d::Constant(-kInf);
+  p.xu = Eigen::Vector2d::Constant(kInf);
+  p.cl = p.cu = Eigen::VectorXd::Zero(1);
+  p.value = [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) {
+    f = (x[0] - 5) * (x[0] - 5) + 2 * (x[1] - 5) * (x[1] - 5);
+    c.resize(1);
+    c[0] = x[0] - x[1];
+    return true;
+  };
+  useForwardDifferences(p);
+  DenseSqpSettings st;
+  st.max_iterations = 100;
+  st.stall_iterations = 3;
+  st.print = std::getenv("WJ_SQP_PRINT") != nullptr;
+  const DenseSqpResult r = solveDenseSqp(p, Eigen::Vector2d(0.0, 0.0), st);
+  ASSERT_TRUE(r.feasible) << toString(r.status);
+  EXPECT_NEAR(r.x[0], 5.0, 1e-3) << toString(r.status) << " after " << r.iterations;
+  EXPECT_NEAR(r.x[1], 5.0, 1e-3);
+}
+
 // x1^2 + x2^2 <= 1 and x1 + x2 >= 3 have no common point.
 // |x|^2 <= 1 and x0 + x1 >= 3: no point meets both (the unit disk reaches x0 + x1 = 1.41).
 DenseSqpProblem outsideTheUnitDisk() {

@@ -101,9 +101,8 @@ struct PlannerSettings {
   double warm_start_spread = 0.02;
   int de_restarts = 3;  ///< fresh-population restarts after an infeasible stagnation
   bool polish = true;   ///< run the polish on the DE's best candidate
-  /// The polish's NLP solver: the planner's dense SQP or Ipopt 3.11 + MUMPS (docs/planner.md).
-  /// Ipopt stays the default: the SQP is faster on forward, forward_hw and vertical but slower
-  /// on backflip in 2 of 3 A/B runs.
+  /// The polish's NLP solver: the planner's dense SQP (the default: 3-6 times faster from the
+  /// same DE point, bench_polish) or Ipopt 3.11 + MUMPS (docs/planner.md).
   PolishSolver polish_solver = PolishSolver::Sqp;
   int polish_max_iterations = 15;
   /// The same for a warm-started solve (it begins next to a polished neighbour), 0 = as cold.
