@@ -25,9 +25,11 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <future>
 #include <iostream>
 #include <mutex>
@@ -350,6 +352,82 @@ ClosedLoop runClosedLoop(Server& server, int clients, double seconds, const char
   return r;
 }
 
+// The same closed loop without a client thread per call in flight: `clients` chains, each on
+// its own connection, driven by gRPC's callback API; each chain issues its next call from the
+// completion of the previous one. `start(stub, ctx, client, done)` starts one call and calls
+// done(ok) when it completes.
+template <class Start>
+ClosedLoop runCallbackLoop(Server& server, int clients, double seconds, const char* tag,
+                           Start start) {
+  struct Chain {
+    std::unique_ptr<v1::JumpPlanner::Stub> stub;
+    std::unique_ptr<grpc::ClientContext> ctx;
+    std::vector<double> ms;
+    Clock::time_point t0;
+  };
+  std::vector<Chain> chains(static_cast<std::size_t>(clients));
+  std::mutex mutex;
+  std::condition_variable cv;
+  int finished = 0;
+  std::atomic<long> errors{0};
+  std::atomic<bool> timed{false};
+  // End of the timed part (written by this thread, read in the completions).
+  std::atomic<Clock::rep> end{Clock::time_point::max().time_since_epoch().count()};
+  auto before_end = [&end] { return Clock::now().time_since_epoch().count() < end.load(); };
+  auto at = [](double s_from_now) {
+    return (Clock::now() +
+            std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s_from_now)))
+        .time_since_epoch()
+        .count();
+  };
+  std::function<void(int)> issue = [&](int i) {
+    Chain& c = chains[static_cast<std::size_t>(i)];
+    c.ctx = std::make_unique<grpc::ClientContext>();
+    c.ctx->set_deadline(std::chrono::system_clock::now() + 5s);
+    c.t0 = Clock::now();
+    start(*c.stub, c.ctx.get(), i, [&, i](bool ok) {
+      Chain& done = chains[static_cast<std::size_t>(i)];
+      const bool counting = timed.load();
+      if (counting) {
+        done.ms.push_back(msSince(done.t0));
+        if (!ok) ++errors;
+      }
+      if (!counting || before_end()) {
+        issue(i);
+      } else {
+        const std::lock_guard<std::mutex> lock(mutex);
+        ++finished;
+        cv.notify_all();
+      }
+    });
+  };
+  for (int i = 0; i < clients; ++i) {
+    grpc::ChannelArguments args;
+    args.SetMaxReceiveMessageSize(16 * 1024 * 1024);
+    args.SetInt(tag, i);
+    chains[static_cast<std::size_t>(i)].stub = v1::JumpPlanner::NewStub(
+        grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), args));
+  }
+  // Untimed: every chain connects and runs for a moment before the clock starts.
+  for (int i = 0; i < clients; ++i) issue(i);
+  std::this_thread::sleep_for(300ms);
+  const double server_cpu0 = server.cpuMs(), client_cpu0 = selfCpuMs();
+  const auto t0 = Clock::now();
+  end = at(seconds);
+  timed = true;
+  {
+    std::unique_lock<std::mutex> lock(mutex);
+    cv.wait(lock, [&] { return finished == clients; });
+  }
+  ClosedLoop r;
+  r.elapsed_s = msSince(t0) / 1e3;
+  r.server_cpu_ms = server.cpuMs() - server_cpu0;
+  r.client_cpu_ms = selfCpuMs() - client_cpu0;
+  for (const auto& c : chains) r.ms.insert(r.ms.end(), c.ms.begin(), c.ms.end());
+  r.errors = errors.load();
+  return r;
+}
+
 // Throughput and CPU per request of a closed loop, with its latency percentiles.
 json loopJson(const ClosedLoop& r) {
   const auto n = static_cast<double>(std::max<std::size_t>(r.ms.size(), 1));
@@ -375,6 +453,15 @@ json benchGrpcFloor(Server& server, int clients, double seconds) {
         return stub.GetStats(&ctx, v1::GetStatsRequest{}, &response).ok();
       }));
   j["rpc"] = "GetStats";
+  // The same with callback-API clients (no client thread per call in flight).
+  std::vector<v1::GetStatsResponse> responses(static_cast<std::size_t>(clients));
+  const v1::GetStatsRequest request;
+  j["callback_clients"] = loopJson(runCallbackLoop(
+      server, clients, seconds, "wj.bench.floor_callback",
+      [&](v1::JumpPlanner::Stub& stub, grpc::ClientContext* ctx, int i, auto done) {
+        stub.async()->GetStats(ctx, &request, &responses[static_cast<std::size_t>(i)],
+                               [done](const grpc::Status& s) { done(s.ok()); });
+      }));
   return j;
 }
 
@@ -439,6 +526,22 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
   j["target_throughput_req_s"] = 10000.0;
   j["meets_p99_target"] = percentile(loop.ms, 0.99) <= 1.0;
   j["meets_throughput_target"] = throughput >= 10000.0;
+  // The same hits from callback-API clients (no client thread per call in flight): what the
+  // service answers when the clients cost less, against the floor's callback_clients.
+  std::atomic<long> callback_not_hits{0};
+  const ClosedLoop callback = runCallbackLoop(
+      server, clients, seconds, "wj.bench.client_callback",
+      [&](v1::JumpPlanner::Stub& stub, grpc::ClientContext* ctx, int i, auto done) {
+        auto& response = responses[static_cast<std::size_t>(i)];
+        stub.async()->PlanJump(ctx, &generators[static_cast<std::size_t>(i)].next(), &response,
+                               [done, &response, &callback_not_hits](const grpc::Status& s) {
+                                 if (s.ok() && response.source() != v1::PLAN_SOURCE_CACHE_HIT)
+                                   ++callback_not_hits;
+                                 done(s.ok());
+                               });
+      });
+  j["callback_clients"] = loopJson(callback);
+  j["callback_clients"]["not_hits"] = callback_not_hits.load();
   j["grpc_floor"] = benchGrpcFloor(server, clients, seconds);
   return j;
 }
