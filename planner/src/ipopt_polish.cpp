@@ -27,8 +27,8 @@ std::mutex& ipoptMutex() {
 // caller re-checks the full set before accepting the result.
 class PolishNlp final : public Ipopt::TNLP {
  public:
-  PolishNlp(const JumpModel& model, const Eigen::VectorXd& u0)
-      : model_(model), problem_(model, u0), best_u_(u0) {}
+  PolishNlp(const JumpModel& model, const Eigen::VectorXd& u0, PolishGoal goal)
+      : model_(model), problem_(model, u0, goal), best_u_(u0) {}
 
   const Eigen::VectorXd& solution() const { return best_u_; }
   int iterations() const { return iterations_; }
@@ -209,9 +209,9 @@ class PolishNlp final : public Ipopt::TNLP {
 }  // namespace
 
 PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                              int* iterations, int max_iterations) {
+                              int* iterations, int max_iterations, PolishGoal goal) {
   u = u0;
-  Ipopt::SmartPtr<PolishNlp> nlp = new PolishNlp(model, u0);
+  Ipopt::SmartPtr<PolishNlp> nlp = new PolishNlp(model, u0, goal);
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
   app->Options()->SetStringValue("sb", "yes");
   app->Options()->SetIntegerValue("print_level", std::getenv("WJ_IPOPT_PRINT") ? 5 : 0);

@@ -50,7 +50,7 @@ class JumpProblem final : public de::Problem {
 
 }  // namespace
 
-std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev) {
+std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev, double backoff) {
   std::vector<std::pair<int, ConstraintClass>> v;
   for (int i = 0; i < kNumConstraintClasses; ++i) {
     const auto c = static_cast<ConstraintClass>(i);
@@ -60,7 +60,7 @@ std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev) {
     // Constraints hold but the target is missed: the active ones are what stops it.
     for (int i = 0; i < kNumConstraintClasses; ++i) {
       const auto c = static_cast<ConstraintClass>(i);
-      if (ev.margins[i].worst / JumpModel::classScale(c) < 0.05)
+      if (ev.margins[i].worst / JumpModel::classScale(c) < backoff + 0.05)
         v.emplace_back(JumpModel::classPriority(c), c);
     }
   }
@@ -148,6 +148,32 @@ Eigen::Matrix<double, model::kNumJoints, 1> JumpPlanner::standPosture() const {
   }
   return q;
 }
+
+namespace {
+
+// A closest approach can move far from its start, past constraints that were not near their
+// bound there and so were not in the polish's problem (polish_problem.h). The last point of
+// the segment from `start` (meeting every constraint) to `end` that still meets them all, by
+// bisection to 1/64 of the segment; `ev` becomes its evaluation (start's if none).
+Eigen::VectorXd backToTheConstraints(const JumpModel& model, const Eigen::VectorXd& start,
+                                     const Eigen::VectorXd& end, Evaluation& ev) {
+  double lo = 0.0, hi = 1.0;
+  model.evaluate(start, ev);
+  Evaluation trial;
+  for (int k = 0; k < 6; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    model.evaluate(start + mid * (end - start), trial);
+    if (trial.valid && trial.constraints_ok) {
+      lo = mid;
+      ev = trial;
+    } else {
+      hi = mid;
+    }
+  }
+  return start + lo * (end - start);
+}
+
+}  // namespace
 
 PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initial,
                                 const PlanOptions& options) const {
@@ -288,11 +314,19 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
       r.polish = PolishOutcome::Rejected;
     } else {
       int iterations = 0;
-      r.polish = polishCandidate(model, r.u, u_pol, &iterations, max_iterations);
+      // A best that meets every constraint and misses the target: the DE stops early only
+      // within the target's tolerances, so the target is out of reach from here, and the polish
+      // brings it as close as the constraints allow instead of trading them for it.
+      r.polish_goal = r.evaluation.constraints_ok && !r.evaluation.target_ok
+                          ? PolishGoal::ClosestApproach
+                          : PolishGoal::MeetTarget;
+      r.polish = polishCandidate(model, r.u, u_pol, &iterations, max_iterations, r.polish_goal);
       r.polish_iterations += iterations;
       if (r.polish != PolishOutcome::Failed) {
         Evaluation ev;
         model.evaluate(u_pol, ev);
+        if (r.polish_goal == PolishGoal::ClosestApproach && !ev.constraints_ok)
+          u_pol = backToTheConstraints(model, r.u, u_pol, ev);
         // The polish never worsens the result: keep its point only if the cost drops and it is
         // feasible whenever the DE's point was.
         const bool better = ev.cost < r.evaluation.cost && (ev.feasible || !r.evaluation.feasible);
@@ -342,7 +376,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     if (c.evaluation.valid) r.candidates.push_back(std::move(c));
   }
 
-  r.binding = findBindingClasses(r.evaluation);
+  r.binding = findBindingClasses(r.evaluation, settings_.polish_backoff);
   r.summary = summarizeEvaluation(r.evaluation, r.binding);
   if (r.evaluation.valid) r.plan = model.buildPlan(r.u, &r.evaluation);
   r.total_ms = msSince(t_start);

@@ -24,11 +24,9 @@ nlohmann::json reportJson(const Scenario& sc, const PlannerResult& r) {
   j["stop_reason"] = std::string(de::toString(r.de.stop_reason));
   j["first_feasible_evaluations"] = r.de.first_feasible_evaluations;
   j["de_restarts"] = r.de_restarts;
-  j["polish"] = {{"outcome", toString(r.polish)},
-                 {"iterations", r.polish_iterations},
-                 {"de_cost", r.de_cost},
-                 {"final_cost", r.final_cost},
-                 {"gain", r.de_cost - r.final_cost}};
+  j["polish"] = {{"outcome", toString(r.polish)},     {"goal", toString(r.polish_goal)},
+                 {"iterations", r.polish_iterations}, {"de_cost", r.de_cost},
+                 {"final_cost", r.final_cost},        {"gain", r.de_cost - r.final_cost}};
   const auto& t = sc.task.target;
   j["target"] = {{"dx", t.dx},
                  {"z", t.height},

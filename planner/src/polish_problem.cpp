@@ -12,8 +12,8 @@ namespace {
 constexpr double kActiveMargin = 3.0;
 }  // namespace
 
-PolishProblem::PolishProblem(const JumpModel& model, const Eigen::VectorXd& u0)
-    : model_(model), u0_(u0) {
+PolishProblem::PolishProblem(const JumpModel& model, const Eigen::VectorXd& u0, PolishGoal goal)
+    : model_(model), u0_(u0), goal_(goal) {
   const auto& lo = model.lowerBounds();
   const auto& hi = model.upperBounds();
   for (int i = 0; i < model.dimension(); ++i)
@@ -22,7 +22,9 @@ PolishProblem::PolishProblem(const JumpModel& model, const Eigen::VectorXd& u0)
   Eigen::Vector4d e;
   if (model.evaluateConstraints(u0, g_full_, e, nullptr)) selectActive(g_full_);
   apex_ = model.task().target.event == TargetEvent::Apex;
+  // (Touchdown targets: the height error is zero by the event's definition.)
   residuals_ = apex_ ? std::vector<int>{0, 1, 2} : std::vector<int>{0, 2};
+  if (goal_ == PolishGoal::ClosestApproach) residuals_.clear();
   m_ = static_cast<int>(active_.size() + residuals_.size()) + (apex_ ? 1 : 0);
 
   const int n = numVariables();
@@ -90,7 +92,11 @@ bool PolishProblem::value(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& 
   Eigen::Vector4d e;
   double energy = 0.0;
   if (!model_.evaluateConstraints(u_work_, g_full_, e, &energy)) return false;
-  f = model_.settings().energy_weight * energy;
+  const PlannerSettings& st = model_.settings();
+  f = st.energy_weight * energy;
+  if (goal_ == PolishGoal::ClosestApproach)  // the target terms of JumpModel::evaluate's cost
+    f += std::pow(e[0] / st.tolerance_dx_m, 2) + std::pow(e[1] / st.tolerance_height_m, 2) +
+         std::pow(e[2] / st.tolerance_pitch_rad, 2);
   c.resize(m_);
   int k = 0;
   for (int i : active_) c[k++] = g_full_[i];

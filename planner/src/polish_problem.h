@@ -2,7 +2,9 @@
 /// @file The polish NLP of a DE candidate, shared by its solvers (Ipopt, dense SQP):
 ///   min energy_weight * energy(u)  s.t.  near-active sampled margins >= polish.backoff,
 ///   target errors = 0,  |landing pitch| <= tolerance (apex targets),  box bounds,
-/// over the free variables of the search vector (those with upper > lower bound).
+/// over the free variables of the search vector (those with upper > lower bound). With
+/// PolishGoal::ClosestApproach the target errors leave the constraints and enter the objective
+/// as the planner's target cost, sum of (error / tolerance)^2.
 /// Internal to the planner library.
 
 #include <Eigen/Core>
@@ -10,6 +12,7 @@
 #include <vector>
 
 #include "planner/jump_model.h"
+#include "planner/jump_planner.h"
 
 namespace wj::planner {
 
@@ -21,7 +24,8 @@ inline constexpr double kPolishConstraintTolerance = 1e-6;
 /// (value() writes a workspace); one per polish.
 class PolishProblem {
  public:
-  PolishProblem(const JumpModel& model, const Eigen::VectorXd& u0);
+  PolishProblem(const JumpModel& model, const Eigen::VectorXd& u0,
+                PolishGoal goal = PolishGoal::MeetTarget);
 
   int numVariables() const { return static_cast<int>(free_.size()); }
   int numConstraints() const { return m_; }
@@ -61,6 +65,7 @@ class PolishProblem {
   Eigen::VectorXd u0_, g_full_, u_work_, c_work_;
   std::vector<int> free_, active_, residuals_;
   bool apex_ = false;
+  PolishGoal goal_ = PolishGoal::MeetTarget;
   int m_ = 0;
   Eigen::VectorXd xl_, xu_, cl_, cu_;
   double best_f_ = std::numeric_limits<double>::infinity();

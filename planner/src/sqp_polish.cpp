@@ -10,9 +10,9 @@
 namespace wj::planner {
 
 PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                            int* iterations, int max_iterations) {
+                            int* iterations, int max_iterations, PolishGoal goal) {
   u = u0;
-  PolishProblem problem(model, u0);
+  PolishProblem problem(model, u0, goal);
   DenseSqpProblem nlp;
   nlp.xl = problem.xLower();
   nlp.xu = problem.xUpper();
@@ -35,8 +35,9 @@ PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, E
   const DenseSqpResult r = solveDenseSqp(nlp, problem.startPoint(), st);
   if (iterations) *iterations = r.iterations;
   if (st.print)
-    std::fprintf(stderr, "sqp polish: %s after %d iterations, %d evaluations, feasible %d\n",
-                 toString(r.status), r.iterations, r.evaluations, r.feasible ? 1 : 0);
+    std::fprintf(stderr, "sqp polish (%s): %s after %d iterations, %d evaluations, feasible %d\n",
+                 toString(goal), toString(r.status), r.iterations, r.evaluations,
+                 r.feasible ? 1 : 0);
   // No value at the DE's point: nothing to polish (Ipopt reports the same as an error).
   if (r.status == SqpStatus::EvaluationFailed && r.evaluations <= 1) return PolishOutcome::Failed;
   u = problem.fullVector(r.x);
@@ -44,14 +45,24 @@ PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, E
 }
 
 PolishOutcome polishCandidate(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                              int* iterations, int max_iterations) {
+                              int* iterations, int max_iterations, PolishGoal goal) {
   switch (model.settings().polish_solver) {
     case PolishSolver::Ipopt:
-      return polishWithIpopt(model, u0, u, iterations, max_iterations);
+      return polishWithIpopt(model, u0, u, iterations, max_iterations, goal);
     case PolishSolver::Sqp:
       break;
   }
-  return polishWithSqp(model, u0, u, iterations, max_iterations);
+  return polishWithSqp(model, u0, u, iterations, max_iterations, goal);
+}
+
+const char* toString(PolishGoal g) {
+  switch (g) {
+    case PolishGoal::MeetTarget:
+      return "meet_target";
+    case PolishGoal::ClosestApproach:
+      return "closest_approach";
+  }
+  return "?";
 }
 
 }  // namespace wj::planner

@@ -594,7 +594,9 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
                    ? model->buildKnots(u, &a.evaluation)
                    : model->buildPlan(u, &a.evaluation);
     });
-    time("describe", [&] { wj::server::describeEvaluation(a.evaluation, a.binding, a.summary); });
+    time("describe", [&] {
+      wj::server::describeEvaluation(a.evaluation, settings.polish_backoff, a.binding, a.summary);
+    });
     // On an arena with the server's block sizes (grpc_service.cpp), as the server builds it.
     google::protobuf::ArenaOptions arena_options;
     arena_options.start_block_size = 4 * 1024;

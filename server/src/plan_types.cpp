@@ -18,9 +18,9 @@ const char* toString(PlanSource source) {
   return "?";
 }
 
-void describeEvaluation(const planner::Evaluation& ev,
+void describeEvaluation(const planner::Evaluation& ev, double backoff,
                         std::vector<planner::ConstraintClass>& binding, std::string& summary) {
-  binding = planner::findBindingClasses(ev);
+  binding = planner::findBindingClasses(ev, backoff);
   summary = planner::summarizeEvaluation(ev, binding);
 }
 

@@ -562,7 +562,8 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     answer.binding = result.binding;
     answer.summary = result.summary;
   } else {
-    describeEvaluation(answer.evaluation, answer.binding, answer.summary);
+    describeEvaluation(answer.evaluation, planner_.settings().polish_backoff, answer.binding,
+                       answer.summary);
   }
 
   CachedSolution solution;
@@ -658,7 +659,7 @@ PlanAnswer PlanningCore::answerFromSolution(const CachedSolution& s, const PlanR
     throw std::runtime_error("the cached solution has no valid trajectory at this state");
   a.plan = request.trajectory == TrajectoryFormat::Knots ? model.buildKnots(u, &a.evaluation)
                                                          : model.buildPlan(u, &a.evaluation);
-  describeEvaluation(a.evaluation, a.binding, a.summary);
+  describeEvaluation(a.evaluation, planner_.settings().polish_backoff, a.binding, a.summary);
   a.verification = summaryOf(s.verification);
   a.source = source;
   a.stats.evaluations = s.evaluations;

@@ -604,6 +604,32 @@ TEST(JumpPlanner, PolishMeetsTheTargetWhenFeasibleWithEitherSolver) {
   }
 }
 
+TEST(JumpPlanner, OutOfReachTargetIsApproachedWithinTheConstraintsWithEitherSolver) {
+  // The backflip is out of reach at 42 Nm: the DE's best meets every constraint and misses the
+  // rotation. The polish then minimises the target cost with the constraints hard (closest
+  // approach): the answer still meets every constraint and comes closer to the target.
+  for (const PolishSolver solver : {PolishSolver::Sqp, PolishSolver::Ipopt}) {
+    const JumpPlanner planner = makePlanner(withPolishSolver(solver));
+    const Scenario sc = makePreset(planner, "backflip");
+    int closer = 0;
+    for (const std::uint64_t seed : {1u, 3u, 4u}) {
+      PlanOptions o;
+      o.seed = seed;
+      PlanOptions no_polish = o;
+      no_polish.polish = false;
+      const PlannerResult de_only = planner.plan(sc.task, sc.initial, no_polish);
+      ASSERT_TRUE(de_only.evaluation.constraints_ok) << "seed " << seed << ' ' << de_only.summary;
+      ASSERT_FALSE(de_only.evaluation.target_ok) << "seed " << seed;
+      const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+      EXPECT_EQ(r.polish_goal, PolishGoal::ClosestApproach) << toString(solver) << " seed " << seed;
+      EXPECT_TRUE(r.evaluation.constraints_ok) << toString(solver) << " seed " << seed;
+      EXPECT_LE(r.final_cost, r.de_cost) << toString(solver) << " seed " << seed;
+      if (r.evaluation.target_cost < 0.95 * de_only.evaluation.target_cost) ++closer;
+    }
+    EXPECT_GE(closer, 2) << toString(solver);
+  }
+}
+
 TEST(JumpPlanner, PolishIgnoresAnIpoptOptionsFileInTheWorkingDirectory) {
   // Ipopt reads ./ipopt.opt by default; the planner's settings alone must decide the plan.
   const JumpPlanner planner = makePlanner(withPolishSolver(PolishSolver::Ipopt));

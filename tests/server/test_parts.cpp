@@ -127,7 +127,7 @@ TEST(DescribeEvaluation, AgreesWithThePlanner) {
     const auto r = jp.plan(sc.task, sc.initial, o);
     std::vector<planner::ConstraintClass> binding;
     std::string summary;
-    describeEvaluation(r.evaluation, binding, summary);
+    describeEvaluation(r.evaluation, jp.settings().polish_backoff, binding, summary);
     EXPECT_EQ(binding, r.binding) << name;
     EXPECT_EQ(summary, r.summary) << name;
     infeasible += r.evaluation.feasible ? 0 : 1;

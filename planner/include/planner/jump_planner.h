@@ -40,6 +40,21 @@ enum class PolishOutcome {
 };
 const char* toString(PolishOutcome o);
 
+/// What the polish asks of the target.
+enum class PolishGoal {
+  /// The target errors are equalities (= 0); minimise the take-off energy. For a target in
+  /// reach: it is met exactly.
+  MeetTarget,
+  /// For a target out of reach, from a point meeting every constraint: the target cost (the
+  /// planner's, sum of (error / tolerance)^2) plus the energy term is the objective, and the
+  /// constraints stay hard, so the polish comes as close to the target as they allow. With
+  /// MeetTarget it would trade constraint violation for target error, which the planner's
+  /// prioritized cost then rejects (docs/planner.md, "Polish").
+  ClosestApproach,
+};
+/// "meet_target" or "closest_approach".
+const char* toString(PolishGoal g);
+
 /// A solved candidate: its search vector, evaluation and plan.
 struct Candidate {
   Eigen::VectorXd u;
@@ -54,6 +69,7 @@ struct PlannerResult {
   de::Result de;                      ///< the DE's result and per-generation log
   int de_restarts = 0;                ///< DE restarts after stagnation without a feasible candidate
   PolishOutcome polish = PolishOutcome::NotRun;
+  PolishGoal polish_goal = PolishGoal::MeetTarget;  ///< of the final polish (the retries meet)
   int polish_iterations = 0;
   int polish_retries = 0;   ///< other attempts' bests polished after the best stayed infeasible
   double de_cost = 0.0;     ///< best cost after the DE
@@ -91,24 +107,29 @@ class JumpPlanner {
 };
 
 /// The binding constraint classes of an evaluation: the violated ones, highest priority first;
-/// when the constraints hold but the target is missed, the nearly active ones (margin under 5 %
-/// of the class scale), which are what stop the target; empty when feasible.
-std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev);
+/// when the constraints hold but the target is missed, the nearly active ones (margin under
+/// `backoff` + 5 % of the class scale; `backoff` is the margin the polish keeps,
+/// polish.backoff), which are what stop the target; empty when feasible.
+std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev, double backoff = 0.05);
 /// One sentence on an evaluation and its binding classes (PlannerResult::summary).
 std::string summarizeEvaluation(const Evaluation& ev, const std::vector<ConstraintClass>& binding);
 
 /// Polish of candidate u0 on `model`: minimises the take-off energy subject to every
-/// sampled constraint (>= polish.backoff) and the target errors (= 0), in at most
+/// sampled constraint (>= polish.backoff) and the target errors (= 0), or with
+/// PolishGoal::ClosestApproach the target cost subject to the same constraints, in at most
 /// `max_iterations` (0: polish.max_iterations), with the solver of `polish.solver`. Returns the
 /// polished point in `u` (the best point meeting the constraints, else the last iterate); the
 /// caller accepts it only after a full evaluation. Failed: no value at u0 or a solver error.
 PolishOutcome polishCandidate(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                              int* iterations, int max_iterations = 0);
+                              int* iterations, int max_iterations = 0,
+                              PolishGoal goal = PolishGoal::MeetTarget);
 /// The polish by Ipopt 3.11 + MUMPS (polish.solver: ipopt).
 PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                              int* iterations, int max_iterations = 0);
+                              int* iterations, int max_iterations = 0,
+                              PolishGoal goal = PolishGoal::MeetTarget);
 /// The polish by the dense SQP solver of the planner (polish.solver: sqp).
 PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                            int* iterations, int max_iterations = 0);
+                            int* iterations, int max_iterations = 0,
+                            PolishGoal goal = PolishGoal::MeetTarget);
 
 }  // namespace wj::planner

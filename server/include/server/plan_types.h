@@ -85,7 +85,8 @@ struct PlanAnswer {
 /// constraints hold but the target is missed, the nearly active ones) and a one-sentence
 /// summary of a re-evaluated cached solution, by the planner's own rule
 /// (planner::findBindingClasses, planner::summarizeEvaluation).
-void describeEvaluation(const planner::Evaluation& ev,
+/// `backoff`: the planner settings' polish.backoff.
+void describeEvaluation(const planner::Evaluation& ev, double backoff,
                         std::vector<planner::ConstraintClass>& binding, std::string& summary);
 
 }  // namespace wj::server
