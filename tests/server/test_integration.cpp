@@ -181,8 +181,8 @@ TEST(Integration, PlansTravelAsKnotsWhenAsked) {
       jp.knots.qd(i, j) = k.velocities_rad_s(16 * i + j);
       jp.knots.tau(i, j) = k.torques_nm(16 * i + j);
     }
-    const float* c = k.centroidal().data() + 6 * i;
-    jp.knots.centroidal.push_back({c[0], c[1], c[2], c[3], c[4], c[5]});
+    const float* cen = k.centroidal().data() + 6 * i;
+    jp.knots.centroidal.push_back({cen[0], cen[1], cen[2], cen[3], cen[4], cen[5]});
   }
   planner::densify(jp, d.joints().sample_period_s());
   ASSERT_EQ(static_cast<std::uint32_t>(jp.numSamples()), d.joints().num_samples());
