@@ -144,19 +144,28 @@ TEST(DenseSqp, Hs004OptimumOnTheBounds) {
   EXPECT_NEAR(r.x[1], 0.0, 1e-8);
 }
 
-// HS006: min (1 - x1)^2  s.t.  10 (x2 - x1^2) = 0, from (-1.2, 1): f* = 0 at (1, 1).
-TEST(DenseSqp, Hs006NonlinearEquality) {
+// min f(x) s.t. c(x) = 0 over two free variables, with forward-difference derivatives.
+template <class F, class C>
+DenseSqpProblem twoVariablesOneEquality(F f, C c) {
   DenseSqpProblem p;
   p.xl = Eigen::Vector2d::Constant(-kInf);
   p.xu = Eigen::Vector2d::Constant(kInf);
   p.cl = p.cu = Eigen::VectorXd::Zero(1);
-  p.value = [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) {
-    f = (1 - x[0]) * (1 - x[0]);
-    c.resize(1);
-    c[0] = 10 * (x[1] - x[0] * x[0]);
+  p.value = [f, c](const Eigen::VectorXd& x, double& fx, Eigen::VectorXd& cx) {
+    fx = f(x);
+    cx.resize(1);
+    cx[0] = c(x);
     return true;
   };
   useForwardDifferences(p);
+  return p;
+}
+
+// HS006: min (1 - x1)^2  s.t.  10 (x2 - x1^2) = 0, from (-1.2, 1): f* = 0 at (1, 1).
+TEST(DenseSqp, Hs006NonlinearEquality) {
+  const DenseSqpProblem p =
+      twoVariablesOneEquality([](const Eigen::VectorXd& x) { return (1 - x[0]) * (1 - x[0]); },
+                              [](const Eigen::VectorXd& x) { return 10 * (x[1] - x[0] * x[0]); });
   DenseSqpSettings st = converging();
   st.print = std::getenv("WJ_SQP_PRINT") != nullptr;
   const DenseSqpResult r = solveDenseSqp(p, Eigen::Vector2d(-1.2, 1.0), st);
@@ -171,17 +180,11 @@ TEST(DenseSqp, Hs006NonlinearEquality) {
 // linear equality, met at the start and kept by every step), and the step limit (0.1, doubling)
 // makes the way to the optimum (5, 5) take several iterations of steadily falling f.
 TEST(DenseSqp, StallCountStartsAtTheFirstFeasiblePoint) {
-  DenseSqpProblem p;
-  p.xl = Eigen::Vector2d::Constant(-kInf);
-  p.xu = Eigen::Vector2d::Constant(kInf);
-  p.cl = p.cu = Eigen::VectorXd::Zero(1);
-  p.value = [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) {
-    f = (x[0] - 5) * (x[0] - 5) + 2 * (x[1] - 5) * (x[1] - 5);
-    c.resize(1);
-    c[0] = x[0] - x[1];
-    return true;
-  };
-  useForwardDifferences(p);
+  const DenseSqpProblem p = twoVariablesOneEquality(
+      [](const Eigen::VectorXd& x) {
+        return (x[0] - 5) * (x[0] - 5) + 2 * (x[1] - 5) * (x[1] - 5);
+      },
+      [](const Eigen::VectorXd& x) { return x[0] - x[1]; });
   DenseSqpSettings st;
   st.max_iterations = 100;
   st.stall_iterations = 3;
