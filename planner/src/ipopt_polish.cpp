@@ -1,5 +1,6 @@
 // Ipopt polish of a DE candidate (Ipopt 3.11 from Debian: headers under coin/, MUMPS); the
 // problem is polish_problem.h.
+#include <cmath>
 #include <coin/IpIpoptApplication.hpp>
 #include <coin/IpTNLP.hpp>
 #include <cstdlib>
@@ -147,7 +148,9 @@ class PolishNlp final : public Ipopt::TNLP {
     const int stall = model_.settings().polish_stall_iterations;
     if (problem_.hasFeasible()) {
       const double best_f = problem_.bestObjective();
-      if (best_f < stall_f_ - 1e-3 * std::abs(stall_f_)) {
+      // (The first feasible point starts the count: stall_f_ is +inf until then, and
+      // inf - inf would compare false.)
+      if (!std::isfinite(stall_f_) || best_f < stall_f_ - 1e-3 * std::abs(stall_f_)) {
         stall_f_ = best_f;
         stall_iter_ = iter;
       }
