@@ -1263,9 +1263,7 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
   ev.err_landing_pitch = e[3];
   const double landing_excess =
       std::max(std::abs(e[3]) - settings_.landing_pitch_tolerance_rad, 0.0);
-  ev.target_cost = std::pow(e[0] / settings_.tolerance_dx_m, 2) +
-                   std::pow(e[1] / settings_.tolerance_height_m, 2) +
-                   std::pow(e[2] / settings_.tolerance_pitch_rad, 2) +
+  ev.target_cost = targetErrorCost(e) +
                    std::pow(landing_excess / settings_.landing_pitch_tolerance_rad, 2) * 100.0;
   ev.target_ok = std::abs(e[0]) <= settings_.tolerance_dx_m &&
                  std::abs(e[1]) <= settings_.tolerance_height_m &&
@@ -1283,6 +1281,12 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
                      : kInf;
   ev.feasible = ev.constraints_ok && ev.target_ok;
   ev.cost = ev.penalty + ev.target_cost + settings_.energy_weight * ev.energy_j;
+}
+
+double JumpModel::targetErrorCost(const Eigen::Ref<const Eigen::Vector4d>& e) const {
+  return std::pow(e[0] / settings_.tolerance_dx_m, 2) +
+         std::pow(e[1] / settings_.tolerance_height_m, 2) +
+         std::pow(e[2] / settings_.tolerance_pitch_rad, 2);
 }
 
 bool JumpModel::evaluateConstraints(const Eigen::Ref<const Eigen::VectorXd>& u,
@@ -1428,12 +1432,13 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
   } else {
     pieces.push_back({0.0, S.t2, Segment::FourWheels});
   }
-  double a = S.t2;
+  double from = S.t2;
   for (const double f : {settings_.tuck_end_fraction, settings_.extend_start_fraction,
                          settings_.extend_end_fraction, 1.0}) {
-    const double b = std::min(S.t2 + f * S.Tf, S.t3);
-    if (b > a + 1e-9 || f == 1.0) pieces.push_back({a, f == 1.0 ? S.t3 : b, Segment::Flight});
-    a = std::max(a, b);
+    const double to = std::min(S.t2 + f * S.Tf, S.t3);
+    if (to > from + 1e-9 || f == 1.0)
+      pieces.push_back({from, f == 1.0 ? S.t3 : to, Segment::Flight});
+    from = std::max(from, to);
   }
   // Each piece starts with even knots at most knot_dt_s apart. An interval is then halved
   // while the references at its midpoint differ from what densify() makes of its two knots by

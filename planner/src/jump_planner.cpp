@@ -154,11 +154,12 @@ namespace {
 // A closest approach can move far from its start, past constraints that were not near their
 // bound there and so were not in the polish's problem (polish_problem.h). The last point of
 // the segment from `start` (meeting every constraint) to `end` that still meets them all, by
-// bisection to 1/64 of the segment; `ev` becomes its evaluation (start's if none).
+// bisection to 1/64 of the segment; `ev` becomes its evaluation (`start_ev` if none).
 Eigen::VectorXd backToTheConstraints(const JumpModel& model, const Eigen::VectorXd& start,
-                                     const Eigen::VectorXd& end, Evaluation& ev) {
+                                     const Evaluation& start_ev, const Eigen::VectorXd& end,
+                                     Evaluation& ev) {
   double lo = 0.0, hi = 1.0;
-  model.evaluate(start, ev);
+  ev = start_ev;
   Evaluation trial;
   for (int k = 0; k < 6; ++k) {
     const double mid = 0.5 * (lo + hi);
@@ -326,7 +327,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
         Evaluation ev;
         model.evaluate(u_pol, ev);
         if (r.polish_goal == PolishGoal::ClosestApproach && !ev.constraints_ok)
-          u_pol = backToTheConstraints(model, r.u, u_pol, ev);
+          u_pol = backToTheConstraints(model, r.u, r.evaluation, u_pol, ev);
         // The polish never worsens the result: keep its point only if the cost drops and it is
         // feasible whenever the DE's point was.
         const bool better = ev.cost < r.evaluation.cost && (ev.feasible || !r.evaluation.feasible);

@@ -92,11 +92,8 @@ bool PolishProblem::value(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& 
   Eigen::Vector4d e;
   double energy = 0.0;
   if (!model_.evaluateConstraints(u_work_, g_full_, e, &energy)) return false;
-  const PlannerSettings& st = model_.settings();
-  f = st.energy_weight * energy;
-  if (goal_ == PolishGoal::ClosestApproach)  // the target terms of JumpModel::evaluate's cost
-    f += std::pow(e[0] / st.tolerance_dx_m, 2) + std::pow(e[1] / st.tolerance_height_m, 2) +
-         std::pow(e[2] / st.tolerance_pitch_rad, 2);
+  f = model_.settings().energy_weight * energy;
+  if (goal_ == PolishGoal::ClosestApproach) f += model_.targetErrorCost(e);
   c.resize(m_);
   int k = 0;
   for (int i : active_) c[k++] = g_full_[i];

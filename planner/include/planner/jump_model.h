@@ -87,6 +87,12 @@ class JumpModel {
   void evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation& ev,
                 double cutoff = std::numeric_limits<double>::infinity()) const;
 
+  /// The target terms of the cost from the target residuals e (dx, height, pitch, landing
+  /// pitch: evaluateConstraints' order): sum of (error / tolerance)^2 over dx, height and pitch.
+  /// evaluate() adds the landing pitch's excess over its tolerance; the polish's closest
+  /// approach minimises this.
+  double targetErrorCost(const Eigen::Ref<const Eigen::Vector4d>& e) const;
+
   /// Number of individual constraint samples (fixed for this model), for the polish.
   int numConstraintSamples() const { return num_constraint_samples_; }
   /// Where constraint sample i of evaluateConstraints() comes from: the same margin (a joint's

@@ -110,7 +110,7 @@ class JumpPlanner {
 /// when the constraints hold but the target is missed, the nearly active ones (margin under
 /// `backoff` + 5 % of the class scale; `backoff` is the margin the polish keeps,
 /// polish.backoff), which are what stop the target; empty when feasible.
-std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev, double backoff = 0.05);
+std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev, double backoff);
 /// One sentence on an evaluation and its binding classes (PlannerResult::summary).
 std::string summarizeEvaluation(const Evaluation& ev, const std::vector<ConstraintClass>& binding);
 
