@@ -90,8 +90,7 @@ void BM_Polish(benchmark::State& state) {
   for (const auto& x : points) {
     Evaluation ev;
     model.evaluate(x, ev);
-    goals.push_back(ev.constraints_ok && !ev.target_ok ? PolishGoal::ClosestApproach
-                                                       : PolishGoal::MeetTarget);
+    goals.push_back(polishGoalFor(ev));
   }
   std::vector<double> ms, iterations;
   std::size_t k = 0;

@@ -50,6 +50,10 @@ class JumpProblem final : public de::Problem {
 
 }  // namespace
 
+PolishGoal polishGoalFor(const Evaluation& ev) {
+  return ev.constraints_ok && !ev.target_ok ? PolishGoal::ClosestApproach : PolishGoal::MeetTarget;
+}
+
 std::vector<ConstraintClass> findBindingClasses(const Evaluation& ev, double backoff) {
   std::vector<std::pair<int, ConstraintClass>> v;
   for (int i = 0; i < kNumConstraintClasses; ++i) {
@@ -315,12 +319,7 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
       r.polish = PolishOutcome::Rejected;
     } else {
       int iterations = 0;
-      // A best that meets every constraint and misses the target: the DE stops early only
-      // within the target's tolerances, so the target is out of reach from here, and the polish
-      // brings it as close as the constraints allow instead of trading them for it.
-      r.polish_goal = r.evaluation.constraints_ok && !r.evaluation.target_ok
-                          ? PolishGoal::ClosestApproach
-                          : PolishGoal::MeetTarget;
+      r.polish_goal = polishGoalFor(r.evaluation);
       r.polish = polishCandidate(model, r.u, u_pol, &iterations, max_iterations, r.polish_goal);
       r.polish_iterations += iterations;
       if (r.polish != PolishOutcome::Failed) {

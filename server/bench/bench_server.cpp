@@ -308,6 +308,15 @@ struct ClosedLoop {
   long errors = 0;
 };
 
+// Client `i`'s stub on its own connection (`tag` keeps gRPC from sharing one).
+std::unique_ptr<v1::JumpPlanner::Stub> clientStub(Server& server, const char* tag, int i) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(16 * 1024 * 1024);
+  args.SetInt(tag, i);
+  return v1::JumpPlanner::NewStub(
+      grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), args));
+}
+
 // `clients` threads, each on its own connection (`tag` keeps gRPC from sharing one), call
 // `call(stub, client)` back to back for `seconds` after one untimed call each; `call` returns
 // false on an error. Round trips and the server's and the clients' CPU over the timed part.
@@ -320,11 +329,7 @@ ClosedLoop runClosedLoop(Server& server, int clients, double seconds, const char
   std::vector<std::thread> threads;
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
-      grpc::ChannelArguments args;
-      args.SetMaxReceiveMessageSize(16 * 1024 * 1024);
-      args.SetInt(tag, i);
-      auto stub = v1::JumpPlanner::NewStub(
-          grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), args));
+      auto stub = clientStub(server, tag, i);
       (void)call(*stub, i);  // connect before the clock starts
       ++ready;
       while (!go.load()) std::this_thread::yield();
@@ -402,11 +407,7 @@ ClosedLoop runCallbackLoop(Server& server, int clients, double seconds, const ch
     });
   };
   for (int i = 0; i < clients; ++i) {
-    grpc::ChannelArguments args;
-    args.SetMaxReceiveMessageSize(16 * 1024 * 1024);
-    args.SetInt(tag, i);
-    chains[static_cast<std::size_t>(i)].stub = v1::JumpPlanner::NewStub(
-        grpc::CreateCustomChannel(server.target(), grpc::InsecureChannelCredentials(), args));
+    chains[static_cast<std::size_t>(i)].stub = clientStub(server, tag, i);
   }
   // Untimed: every chain connects and runs for a moment before the clock starts.
   for (int i = 0; i < clients; ++i) issue(i);

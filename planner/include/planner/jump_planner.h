@@ -54,6 +54,10 @@ enum class PolishGoal {
 };
 /// "meet_target" or "closest_approach".
 const char* toString(PolishGoal g);
+/// The goal the planner gives the polish of a point evaluated as `ev`: ClosestApproach when it
+/// meets every constraint and misses the target (the DE stops early only within the target's
+/// tolerances, so the target is out of reach from there), else MeetTarget.
+PolishGoal polishGoalFor(const Evaluation& ev);
 
 /// A solved candidate: its search vector, evaluation and plan.
 struct Candidate {
