@@ -1,6 +1,7 @@
 // plan_jump: plans one jump with the DE + polish planner and prints the result (text or JSON).
 #include <CLI/CLI.hpp>
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -39,7 +40,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   int threads = 2;
   std::optional<std::int64_t> max_evals;
-  bool json = false, no_polish = false;
+  bool json = false, no_polish = false, log = false;
   app.add_option("--task", task_name, "preset: forward | forward_hw | vertical | backflip");
   app.add_option("--target", target_text, "custom target dx,z,pitch [m, m, rad] of the CoM");
   app.add_option("--event", event_text, "what --target describes: apex | touchdown");
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
   app.add_option("--config", config, "planner settings YAML (defaults if omitted)");
   app.add_flag("--no-polish", no_polish, "skip the polish (polish.solver: sqp or ipopt)");
   app.add_flag("--json", json, "print JSON");
+  app.add_flag("--log", log, "add the DE's per-generation log (last attempt) to the output");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -90,11 +92,34 @@ int main(int argc, char** argv) {
     if (no_polish) opts.polish = false;
     if (max_evals) opts.max_evaluations = *max_evals;
     const PlannerResult r = planner.plan(sc.task, sc.initial, opts);
-    const nlohmann::json j = reportJson(sc, r);
+    nlohmann::json j = reportJson(sc, r);
+    if (log) {
+      nlohmann::json rows = nlohmann::json::array();
+      for (const auto& g : r.de.log)
+        rows.push_back({{"generation", g.generation},
+                        {"evaluations", g.evaluations},
+                        {"best_cost", g.best_cost},
+                        {"mean_cost", g.mean_cost},
+                        {"best_feasible", g.best_feasible},
+                        {"mean_F", g.mean_F},
+                        {"mean_CR", g.mean_CR},
+                        {"elapsed_ms", 1e3 * g.elapsed_s}});
+      j["log"] = std::move(rows);
+    }
     if (json) {
       std::cout << j.dump(2) << "\n";
     } else {
       std::cout << reportText(sc, r);
+      if (log) {
+        std::cout << "  generation  evaluations     best cost     mean cost  feasible  F     CR\n";
+        for (const auto& g : r.de.log) {
+          char line[160];
+          std::snprintf(line, sizeof line, "  %10d  %11lld  %12.6g  %12.6g  %-8s  %.2f  %.2f\n",
+                        g.generation, static_cast<long long>(g.evaluations), g.best_cost,
+                        g.mean_cost, g.best_feasible ? "yes" : "no", g.mean_F, g.mean_CR);
+          std::cout << line;
+        }
+      }
     }
     return r.evaluation.feasible ? 0 : 3;
   } catch (const std::exception& e) {

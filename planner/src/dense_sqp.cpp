@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <utility>
 
 namespace wj::planner {
 
@@ -51,23 +52,29 @@ constexpr double kQpTolerance = 1e-9;
 
 class DenseQp {
  public:
+  // `rows` rows in all: the first rows - 2n are dense (the linearised constraints); then each
+  // variable j has two unit rows, +e_j (lower bound) at dense + 2j and -e_j (upper) after it.
+  // Those never enter a product: they add to the Newton matrix's diagonal only.
   void resize(int n, int rows) {
     n_ = n;
     rows_ = rows;
+    dense_ = rows - 2 * n;
     for (Eigen::VectorXd* v : {&w_, &z_, &s_, &y_, &rp_, &rs_, &D_, &h_, &rcw_, &rcs_, &dw_, &dz_,
                                &ds_, &dy_, &dwa_, &dza_, &dsa_, &dya_, &tmp_rows_})
       v->resize(rows);
     for (Eigen::VectorXd* v : {&d_, &rd_, &dd_, &rhs_}) v->resize(n);
     M_.resize(n, n);
-    AD_.resize(rows, n);
+    AD_.resize(dense_, n);
     llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
   }
 
   // Solves the QP; false if the Newton matrix cannot be factorised. The result is usable when
-  // the iteration limit ends the solve first (the SQP's line search judges it).
+  // the iteration limit ends the solve first (the SQP's line search judges it). A's last 2n
+  // rows must be the unit rows described at resize() (they are not read).
   bool solve(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, const Eigen::MatrixXd& A,
              const Eigen::VectorXd& b, const Eigen::VectorXd& rho, int max_iterations) {
     ++solves;
+    const auto Ad = A.topRows(dense_);
     d_.setZero();
     for (int i = 0; i < rows_; ++i) {
       const double r0 = -b[i];  // a_i'd - b_i at d = 0
@@ -95,8 +102,8 @@ class DenseQp {
       ++iterations;
       rd_.noalias() = B * d_;
       rd_ += g;
-      rd_.noalias() -= A.transpose() * z_;
-      rp_.noalias() = A * d_;
+      transposeTimesSub(Ad, z_, rd_);
+      times(Ad, d_, rp_);
       double mu = 0.0;
       for (int i = 0; i < rows_; ++i) {
         const bool el = rho[i] > 0;
@@ -110,14 +117,18 @@ class DenseQp {
           rs_.lpNorm<Eigen::Infinity>() <= kQpTolerance * dual_scale &&
           mu <= 0.1 * kQpTolerance * primal_scale * dual_scale)
         break;
-      // The Newton matrix (shared by the predictor and the corrector).
+      // The Newton matrix (shared by the predictor and the corrector): B + A' D^-1 A, of which
+      // the dense rows give a symmetric product (lower triangle, the one LLT reads) and the
+      // unit rows the diagonal.
       for (int i = 0; i < rows_; ++i) {
         D_[i] = w_[i] / z_[i] + (rho[i] > 0 ? s_[i] / y_[i] : 0.0);
         tmp_rows_[i] = 1.0 / D_[i];
       }
-      AD_.noalias() = tmp_rows_.asDiagonal() * A;  // column by column (A is column-major)
-      M_ = B;
-      M_.noalias() += AD_.transpose() * A;
+      AD_.noalias() = tmp_rows_.head(dense_).asDiagonal() * Ad;
+      for (int j = 0; j < n_; ++j) {
+        for (int i = j; i < n_; ++i) M_(i, j) = B(i, j) + AD_.col(i).dot(Ad.col(j));
+        M_(j, j) += tmp_rows_[dense_ + 2 * j] + tmp_rows_[dense_ + 2 * j + 1];
+      }
       llt_.compute(M_);
       if (llt_.info() != Eigen::Success) {
         M_.diagonal().array() += 1e-10 * (1.0 + M_.diagonal().cwiseAbs().maxCoeff());
@@ -129,7 +140,7 @@ class DenseQp {
         rcw_[i] = -w_[i] * z_[i];
         rcs_[i] = -s_[i] * y_[i];
       }
-      direction(A, rho);
+      direction(Ad, rho);
       double alpha = stepToBoundary(rho, 1.0);
       double mu_aff = 0.0;
       for (int i = 0; i < rows_; ++i) {
@@ -147,7 +158,7 @@ class DenseQp {
         rcw_[i] = sigma * mu - w_[i] * z_[i] - dwa_[i] * dza_[i];
         rcs_[i] = rho[i] > 0 ? sigma * mu - s_[i] * y_[i] - dsa_[i] * dya_[i] : 0.0;
       }
-      direction(A, rho);
+      direction(Ad, rho);
       alpha = stepToBoundary(rho, 0.995);
       d_ += alpha * dd_;
       w_ += alpha * dw_;
@@ -163,18 +174,36 @@ class DenseQp {
   const Eigen::VectorXd& multipliers() const { return z_; }
 
  private:
+  using DenseRows = decltype(std::declval<const Eigen::MatrixXd&>().topRows(0));
+
+  // out = A d over all rows (dense rows Ad, then the unit rows).
+  void times(const DenseRows& Ad, const Eigen::VectorXd& d, Eigen::VectorXd& out) const {
+    out.head(dense_).noalias() = Ad * d;
+    for (int j = 0; j < n_; ++j) {
+      out[dense_ + 2 * j] = d[j];
+      out[dense_ + 2 * j + 1] = -d[j];
+    }
+  }
+  // out -= A' v over all rows.
+  void transposeTimesSub(const DenseRows& Ad, const Eigen::VectorXd& v,
+                         Eigen::VectorXd& out) const {
+    out.noalias() -= Ad.transpose() * v.head(dense_);
+    for (int j = 0; j < n_; ++j) out[j] -= v[dense_ + 2 * j] - v[dense_ + 2 * j + 1];
+  }
+
   // The Newton direction for the complementarity right-hand sides rcw_, rcs_ (residuals in
   // rd_, rp_, rs_; factorisation in llt_).
-  void direction(const Eigen::MatrixXd& A, const Eigen::VectorXd& rho) {
+  void direction(const DenseRows& Ad, const Eigen::VectorXd& rho) {
     for (int i = 0; i < rows_; ++i) {
       h_[i] = -rp_[i] + rcw_[i] / z_[i];
       if (rho[i] > 0) h_[i] -= (rcs_[i] - s_[i] * rs_[i]) / y_[i];
       tmp_rows_[i] = h_[i] / D_[i];
     }
-    rhs_ = -rd_;
-    rhs_.noalias() += A.transpose() * tmp_rows_;
+    rhs_ = rd_;
+    transposeTimesSub(Ad, tmp_rows_, rhs_);
+    rhs_ = -rhs_;
     dd_ = llt_.solve(rhs_);
-    tmp_rows_.noalias() = A * dd_;
+    times(Ad, dd_, tmp_rows_);
     for (int i = 0; i < rows_; ++i) {
       dz_[i] = (h_[i] - tmp_rows_[i]) / D_[i];
       dw_[i] = (rcw_[i] - w_[i] * dz_[i]) / z_[i];
@@ -204,7 +233,7 @@ class DenseQp {
     return alpha;
   }
 
-  int n_ = 0, rows_ = 0;
+  int n_ = 0, rows_ = 0, dense_ = 0;
   Eigen::VectorXd d_, rd_, dd_, rhs_;
   Eigen::VectorXd w_, z_, s_, y_, rp_, rs_, D_, h_, rcw_, rcs_, dw_, dz_, ds_, dy_;
   Eigen::VectorXd dwa_, dza_, dsa_, dya_, tmp_rows_;
@@ -283,6 +312,9 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
 
   auto finish = [&](SqpStatus status) {
     result.status = status;
+    if (st.print)
+      std::fprintf(stderr, "sqp QPs: %d solves, %d interior-point iterations\n",
+                   qp.solves + qp_try.solves, qp.iterations + qp_try.iterations);
     if (best_x.size() > 0) {
       result.x = best_x;
       result.f = best_f;

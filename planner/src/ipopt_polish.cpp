@@ -8,6 +8,7 @@
 #include <mutex>
 #include <vector>
 
+#include "de/batch_team.h"
 #include "planner/jump_planner.h"
 #include "polish_problem.h"
 
@@ -33,6 +34,8 @@ class PolishNlp final : public Ipopt::TNLP {
 
   const Eigen::VectorXd& solution() const { return best_u_; }
   int iterations() const { return iterations_; }
+  /// Shares the finite-difference Jacobians among `team`'s threads (PolishProblem::setTeam).
+  void setTeam(de::BatchTeam* team, int threads) { problem_.setTeam(team, threads); }
 
   bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac_g,
                     Ipopt::Index& nnz_h_lag, IndexStyleEnum& index_style) override {
@@ -212,7 +215,7 @@ class PolishNlp final : public Ipopt::TNLP {
 }  // namespace
 
 PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                              int* iterations, int max_iterations, PolishGoal goal) {
+                              int* iterations, int max_iterations, PolishGoal goal, int threads) {
   u = u0;
   Ipopt::SmartPtr<PolishNlp> nlp = new PolishNlp(model, u0, goal);
   Ipopt::SmartPtr<Ipopt::IpoptApplication> app = IpoptApplicationFactory();
@@ -235,7 +238,11 @@ PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0,
   // "": no options file. Ipopt otherwise reads ./ipopt.opt, and a stray file in the service's
   // working directory would change its plans behind the settings (and the cache key).
   if (app->Initialize("") != Ipopt::Solve_Succeeded) return PolishOutcome::Failed;
-  const Ipopt::ApplicationReturnStatus status = app->OptimizeTNLP(nlp);
+  const Ipopt::ApplicationReturnStatus status =
+      de::runWithTeam(threads, kPolishTeamSpin, [&](de::BatchTeam* team) {
+        nlp->setTeam(team, threads);
+        return app->OptimizeTNLP(nlp);
+      });
   if (iterations) *iterations = nlp->iterations();
   u = nlp->solution();
   switch (status) {

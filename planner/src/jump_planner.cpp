@@ -240,7 +240,8 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     polished.push_back(x);
     Eigen::VectorXd u_polished;
     int iterations = 0;
-    if (polishCandidate(model, x, u_polished, &iterations) == PolishOutcome::Failed)
+    if (polishCandidate(model, x, u_polished, &iterations, 0, PolishGoal::MeetTarget,
+                        des.threads) == PolishOutcome::Failed)
       return std::nullopt;
     r.polish_iterations += iterations;
     Evaluation ev;
@@ -320,7 +321,8 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
     } else {
       int iterations = 0;
       r.polish_goal = polishGoalFor(r.evaluation);
-      r.polish = polishCandidate(model, r.u, u_pol, &iterations, max_iterations, r.polish_goal);
+      r.polish = polishCandidate(model, r.u, u_pol, &iterations, max_iterations, r.polish_goal,
+                                 des.threads);
       r.polish_iterations += iterations;
       if (r.polish != PolishOutcome::Failed) {
         Evaluation ev;

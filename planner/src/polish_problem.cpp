@@ -5,6 +5,8 @@
 #include <cmath>
 #include <map>
 
+#include "de/batch_team.h"
+
 namespace wj::planner {
 
 namespace {
@@ -18,9 +20,10 @@ PolishProblem::PolishProblem(const JumpModel& model, const Eigen::VectorXd& u0, 
   const auto& hi = model.upperBounds();
   for (int i = 0; i < model.dimension(); ++i)
     if (hi[i] > lo[i]) free_.push_back(i);
-  g_full_.resize(model.numConstraintSamples());
+  work_.resize(1);
+  work_[0].g.resize(model.numConstraintSamples());
   Eigen::Vector4d e;
-  if (model.evaluateConstraints(u0, g_full_, e, nullptr)) selectActive(g_full_);
+  if (model.evaluateConstraints(u0, work_[0].g, e, nullptr)) selectActive(work_[0].g);
   apex_ = model.task().target.event == TargetEvent::Apex;
   // (Touchdown targets: the height error is zero by the event's definition.)
   residuals_ = apex_ ? std::vector<int>{0, 1, 2} : std::vector<int>{0, 2};
@@ -47,8 +50,14 @@ PolishProblem::PolishProblem(const JumpModel& model, const Eigen::VectorXd& u0, 
     cl_[k] = -tol;
     cu_[k] = tol;
   }
-  u_work_ = u0;
-  c_work_.resize(m_);
+  work_[0].u = u0;
+  work_[0].c.resize(m_);
+}
+
+void PolishProblem::setTeam(de::BatchTeam* team, int threads) {
+  team_ = team;
+  const std::size_t count = team ? static_cast<std::size_t>(std::max(1, threads)) : 1;
+  work_.resize(std::max(work_.size(), count), work_[0]);
 }
 
 // A margin sampled densely along a smooth trajectory otherwise enters as a dozen nearly parallel
@@ -88,15 +97,20 @@ Eigen::VectorXd PolishProblem::fullVector(const Eigen::VectorXd& x) const {
 }
 
 bool PolishProblem::value(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) {
-  for (int i = 0; i < numVariables(); ++i) u_work_[free_[i]] = x[i];
+  return valueWith(work_[0], x, f, c);
+}
+
+bool PolishProblem::valueWith(Workspace& w, const Eigen::VectorXd& x, double& f,
+                              Eigen::VectorXd& c) const {
+  for (int i = 0; i < numVariables(); ++i) w.u[free_[i]] = x[i];
   Eigen::Vector4d e;
   double energy = 0.0;
-  if (!model_.evaluateConstraints(u_work_, g_full_, e, &energy)) return false;
+  if (!model_.evaluateConstraints(w.u, w.g, e, &energy)) return false;
   f = model_.settings().energy_weight * energy;
   if (goal_ == PolishGoal::ClosestApproach) f += model_.targetErrorCost(e);
   c.resize(m_);
   int k = 0;
-  for (int i : active_) c[k++] = g_full_[i];
+  for (int i : active_) c[k++] = w.g[i];
   for (int i : residuals_) c[k++] = e[i];
   if (apex_) c[k++] = e[3];
   return true;
@@ -107,19 +121,26 @@ bool PolishProblem::derivatives(const Eigen::VectorXd& x, double f, const Eigen:
   const int n = numVariables();
   grad.resize(n);
   jac.resize(m_, n);
-  Eigen::VectorXd xp = x;
-  for (int i = 0; i < n; ++i) {
+  // Column i on thread `thread` (its own scratch; the model is immutable).
+  std::vector<char> ok(static_cast<std::size_t>(n), 0);
+  auto column = [&](int i, int thread) {
+    Workspace& w = work_[static_cast<std::size_t>(thread)];
+    Eigen::VectorXd xp = x;
     const double h = 1e-7 * std::max(1.0, std::abs(x[i]));
     const double step = x[i] + h <= xu_[i] ? h : -h;
     xp[i] = x[i] + step;
     double f1 = 0.0;
-    const bool ok = value(xp, f1, c_work_);
-    xp[i] = x[i];
-    if (!ok) return false;
+    if (!valueWith(w, xp, f1, w.c)) return;
     grad[i] = (f1 - f) / step;
-    jac.col(i) = (c_work_ - c) / step;
+    jac.col(i) = (w.c - c) / step;
+    ok[static_cast<std::size_t>(i)] = 1;
+  };
+  if (team_ != nullptr && n > 1) {
+    team_->run(n, column);
+  } else {
+    for (int i = 0; i < n; ++i) column(i, 0);
   }
-  return true;
+  return std::all_of(ok.begin(), ok.end(), [](char v) { return v != 0; });
 }
 
 double PolishProblem::violation(const Eigen::VectorXd& c) const {

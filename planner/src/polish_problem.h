@@ -8,6 +8,7 @@
 /// Internal to the planner library.
 
 #include <Eigen/Core>
+#include <chrono>
 #include <limits>
 #include <vector>
 
@@ -16,9 +17,18 @@
 
 namespace wj::planner {
 
+namespace de {
+class BatchTeam;
+}
+
 /// Constraint violation (scaled margins, target residuals) at which a point counts as meeting
 /// the constraints; the full evaluation re-checks every sample before the point is accepted.
 inline constexpr double kPolishConstraintTolerance = 1e-6;
+
+/// How long the polish's idle team threads spin before they sleep: the serial work between two
+/// Jacobians (QPs, line search) takes longer, so they sleep, and a wake-up costs ~45 us on this
+/// VM (batch_team.h) against ~400 us of columns shared.
+inline constexpr std::chrono::microseconds kPolishTeamSpin{50};
 
 /// The polish problem of one candidate; x is the vector of free variables. Not thread-safe
 /// (value() writes a workspace); one per polish.
@@ -42,9 +52,13 @@ class PolishProblem {
   /// Objective and constraints at x; false if the model has no trajectory there.
   bool value(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c);
   /// Forward-difference gradient and Jacobian (m x n) at x, given f and c there; each probe
-  /// steps inward at the upper bound so that it stays in the box.
+  /// steps inward at the upper bound so that it stays in the box. With a team (setTeam), the
+  /// columns are shared among its threads; the result is the same.
   bool derivatives(const Eigen::VectorXd& x, double f, const Eigen::VectorXd& c,
                    Eigen::VectorXd& grad, Eigen::MatrixXd& jac);
+  /// The threads of `team` (threads of them, calling one included) compute the Jacobian's
+  /// columns from now on; nullptr: the calling thread alone. The team must outlive its use.
+  void setTeam(de::BatchTeam* team, int threads);
   /// Max violation of c's bounds.
   double violation(const Eigen::VectorXd& c) const;
 
@@ -61,8 +75,17 @@ class PolishProblem {
   // of such a minimum (the minimum can move by a sample as u changes).
   void selectActive(const Eigen::VectorXd& g);
 
+  // Scratch of one thread's value(): the full search vector and every sampled margin.
+  struct Workspace {
+    Eigen::VectorXd u, g, c;
+  };
+  // value() with the scratch of `w`.
+  bool valueWith(Workspace& w, const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) const;
+
   const JumpModel& model_;
-  Eigen::VectorXd u0_, g_full_, u_work_, c_work_;
+  Eigen::VectorXd u0_;
+  std::vector<Workspace> work_;  // one per team thread; [0] also serves value()
+  de::BatchTeam* team_ = nullptr;
   std::vector<int> free_, active_, residuals_;
   bool apex_ = false;
   PolishGoal goal_ = PolishGoal::MeetTarget;

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "de/batch_team.h"
 #include "dense_sqp.h"
 #include "planner/jump_planner.h"
 #include "polish_problem.h"
@@ -10,7 +11,7 @@
 namespace wj::planner {
 
 PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                            int* iterations, int max_iterations, PolishGoal goal) {
+                            int* iterations, int max_iterations, PolishGoal goal, int threads) {
   u = u0;
   PolishProblem problem(model, u0, goal);
   DenseSqpProblem nlp;
@@ -32,7 +33,10 @@ PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, E
   st.constraint_tolerance = kPolishConstraintTolerance;
   st.stall_iterations = s.polish_stall_iterations;
   st.print = std::getenv("WJ_SQP_PRINT") != nullptr;
-  const DenseSqpResult r = solveDenseSqp(nlp, problem.startPoint(), st);
+  const DenseSqpResult r = de::runWithTeam(threads, kPolishTeamSpin, [&](de::BatchTeam* team) {
+    problem.setTeam(team, threads);
+    return solveDenseSqp(nlp, problem.startPoint(), st);
+  });
   if (iterations) *iterations = r.iterations;
   if (st.print)
     std::fprintf(stderr, "sqp polish (%s): %s after %d iterations, %d evaluations, feasible %d\n",
@@ -45,14 +49,14 @@ PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, E
 }
 
 PolishOutcome polishCandidate(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
-                              int* iterations, int max_iterations, PolishGoal goal) {
+                              int* iterations, int max_iterations, PolishGoal goal, int threads) {
   switch (model.settings().polish_solver) {
     case PolishSolver::Ipopt:
-      return polishWithIpopt(model, u0, u, iterations, max_iterations, goal);
+      return polishWithIpopt(model, u0, u, iterations, max_iterations, goal, threads);
     case PolishSolver::Sqp:
       break;
   }
-  return polishWithSqp(model, u0, u, iterations, max_iterations, goal);
+  return polishWithSqp(model, u0, u, iterations, max_iterations, goal, threads);
 }
 
 const char* toString(PolishGoal g) {

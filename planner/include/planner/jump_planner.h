@@ -124,16 +124,17 @@ std::string summarizeEvaluation(const Evaluation& ev, const std::vector<Constrai
 /// `max_iterations` (0: polish.max_iterations), with the solver of `polish.solver`. Returns the
 /// polished point in `u` (the best point meeting the constraints, else the last iterate); the
 /// caller accepts it only after a full evaluation. Failed: no value at u0 or a solver error.
+/// `threads` share the finite-difference Jacobians (the result does not depend on them).
 PolishOutcome polishCandidate(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
                               int* iterations, int max_iterations = 0,
-                              PolishGoal goal = PolishGoal::MeetTarget);
+                              PolishGoal goal = PolishGoal::MeetTarget, int threads = 1);
 /// The polish by Ipopt 3.11 + MUMPS (polish.solver: ipopt).
 PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
                               int* iterations, int max_iterations = 0,
-                              PolishGoal goal = PolishGoal::MeetTarget);
+                              PolishGoal goal = PolishGoal::MeetTarget, int threads = 1);
 /// The polish by the dense SQP solver of the planner (polish.solver: sqp).
 PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, Eigen::VectorXd& u,
                             int* iterations, int max_iterations = 0,
-                            PolishGoal goal = PolishGoal::MeetTarget);
+                            PolishGoal goal = PolishGoal::MeetTarget, int threads = 1);
 
 }  // namespace wj::planner

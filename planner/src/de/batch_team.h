@@ -16,9 +16,13 @@
 /// never take an index of a batch it did not see published; the caller publishes a new batch
 /// only once every index of the last one is done.
 
+#include <omp.h>
+
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <exception>
+#include <utility>
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -124,5 +128,34 @@ class BatchTeam {
   alignas(64) std::atomic<int> done_{0};
   alignas(64) std::atomic<bool> stop_{false};
 };
+
+/// Runs body(team) on the calling thread with a team of `threads` OpenMP threads (the calling
+/// one included) taking part in every team->run() it makes, and returns its result; with
+/// threads <= 1, body(nullptr) runs alone. `spin` should outlast the serial work between two
+/// batches. An exception from body is rethrown here.
+template <class Body>
+auto runWithTeam(int threads, std::chrono::microseconds spin, Body&& body)
+    -> decltype(body(static_cast<BatchTeam*>(nullptr))) {
+  using Value = decltype(body(static_cast<BatchTeam*>(nullptr)));
+  if (threads <= 1) return body(nullptr);
+  BatchTeam team(spin);
+  Value result{};
+  std::exception_ptr error;
+#pragma omp parallel num_threads(threads)
+  {
+    if (omp_get_thread_num() == 0) {
+      try {
+        result = body(&team);
+      } catch (...) {  // an exception must not escape an OpenMP region
+        error = std::current_exception();
+      }
+      team.stop();
+    } else {
+      team.work(omp_get_thread_num());
+    }
+  }
+  if (error) std::rethrow_exception(error);
+  return result;
+}
 
 }  // namespace wj::planner::de

@@ -1,7 +1,5 @@
 #include "planner/de/differential_evolution.h"
 
-#include <omp.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -490,28 +488,11 @@ Result Solver::solve(const Problem& problem, const Eigen::MatrixXd& warm_start,
   Box box = checkedBox(problem);
   checkWarmStart(warm_start, static_cast<int>(box.lower.size()));
   Run run(settings_, problem, std::move(box), start);
-  if (run.workers() <= 1) return run.solve(warm_start, cancel);
   // One OpenMP team for the whole solve: thread 0 runs the algorithm, the others evaluate each
   // generation's batch with it (batch_team.h). The spin outlasts the serial work between two
   // batches (a few microseconds at NP = 32) with room to spare.
-  BatchTeam team(std::chrono::microseconds(50));
-  Result result;
-  std::exception_ptr error;
-#pragma omp parallel num_threads(run.workers())
-  {
-    if (omp_get_thread_num() == 0) {
-      try {
-        result = run.solve(warm_start, cancel, &team);
-      } catch (...) {  // an exception must not escape an OpenMP region
-        error = std::current_exception();
-      }
-      team.stop();
-    } else {
-      team.work(omp_get_thread_num());
-    }
-  }
-  if (error) std::rethrow_exception(error);
-  return result;
+  return runWithTeam(run.workers(), std::chrono::microseconds(50),
+                     [&](BatchTeam* team) { return run.solve(warm_start, cancel, team); });
 }
 
 }  // namespace wj::planner::de
