@@ -82,6 +82,7 @@ Polynomial toPolynomial(const Poly& p) {
 // Built once per sample so that the trigonometry is not repeated for every point.
 struct Rot2 {
   double c = 1.0, s = 0.0;
+  Rot2() = default;
   explicit Rot2(double pitch) : c(std::cos(pitch)), s(std::sin(pitch)) {}
   Eigen::Vector2d operator*(const Eigen::Vector2d& v) const {
     return {c * v.x() - s * v.y(), s * v.x() + c * v.y()};
@@ -211,6 +212,7 @@ struct Sample {
   double t1 = 0.0;                              // end of the four-wheel phase
   Eigen::Vector2d c = Eigen::Vector2d::Zero();  // CoM in the base frame (x-z)
   PlanarState s;
+  Rot2 R;  // of s.pitch
   PairSample hind, front;
 };
 
@@ -511,7 +513,9 @@ struct JumpModelAccess {
     std::array<Eigen::Matrix2d, 2> C{};  // d c / d q_pair, pair 0 hind, 1 front
   };
 
-  static ComOffset comOffset(const JumpModel& M, const LegPose& hind, const LegPose& front) {
+  // With `jacobians` false, only c (C is left unset).
+  static ComOffset comOffset(const JumpModel& M, const LegPose& hind, const LegPose& front,
+                             bool jacobians = true) {
     // R_y(q) v = (c x + s z, -s x + c z) and its derivative (-s x + c z, -c x - s z).
     auto Rv = [](double sn, double cs, const Eigen::Vector2d& v) {
       return Eigen::Vector2d(cs * v.x() + sn * v.y(), -sn * v.x() + cs * v.y());
@@ -528,6 +532,7 @@ struct JumpModelAccess {
       const Eigen::Vector2d knee(-l1 * P.s1, -l1 * P.c1), dknee(-l1 * P.c1, l1 * P.s1);
       first += 2.0 * (g.m_thigh * (g.hfe_b + Rv(P.s1, P.c1, g.c_thigh)) +
                       g.m_lower * (g.hfe_b + knee + Rv(P.s12, P.c12, g.c_lower)));
+      if (!jacobians) continue;
       out.C[pair].col(0) = 2.0 / M.mass_ *
                            (g.m_thigh * dRv(P.s1, P.c1, g.c_thigh) +
                             g.m_lower * (dknee + dRv(P.s12, P.c12, g.c_lower)));
@@ -569,7 +574,8 @@ struct JumpModelAccess {
     }
     out.s = s;
     const double r = M.wheel_radius_;
-    const Rot2 R(s.pitch);
+    out.R = Rot2(s.pitch);
+    const Rot2& R = out.R;
     const Eigen::Vector2d com(s.x, s.z), vcom(s.vx, s.vz);
     // Axle positions relative to the CoM in the base frame, and their rates.
     auto relative = [&](const Eigen::Vector2d& axle, const Eigen::Vector2d& v, Eigen::Vector2d& rel,
@@ -601,7 +607,7 @@ struct JumpModelAccess {
       // c(q) needs only the sines and cosines of the joint angles.
       pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach, /*angles=*/false);
       if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach, false);
-      co = comOffset(M, pH, pF);
+      co = comOffset(M, pH, pF, /*jacobians=*/false);
       const Eigen::Vector2d step = co.c - c;
       c = co.c;
       if (step.squaredNorm() < kCoMTolerance * kCoMTolerance) break;
@@ -725,7 +731,7 @@ struct JumpModelAccess {
            smp.t, base + 3);
       sink(ConstraintClass::WheelSpeed, M.env_wheel_.speedMargin(p.wheel_rate), smp.t, base + 3);
     }
-    emitBody(M, smp.t, smp.s, smp.c, &smp, nullptr, sink);
+    emitBody(M, smp.t, smp.s, smp.R, smp.c, &smp, nullptr, sink);
   }
 
   // Clearance of a disc (centre p, radius r) to the obstacle. While the robot is on the ground
@@ -740,13 +746,12 @@ struct JumpModelAccess {
   // Body height and obstacle margins at one instant. In take-off the wheel axles come from the
   // sample; in flight from the blended leg posture `flight_q` (HFE, KFE) per pair.
   template <class Sink>
-  static void emitBody(const JumpModel& M, double t, const PlanarState& s, const Eigen::Vector2d& c,
-                       const Sample* smp, const std::array<Eigen::Vector2d, 2>* flight_q,
-                       Sink& sink) {
+  static void emitBody(const JumpModel& M, double t, const PlanarState& s, const Rot2& R,
+                       const Eigen::Vector2d& c, const Sample* smp,
+                       const std::array<Eigen::Vector2d, 2>* flight_q, Sink& sink) {
     const Eigen::Vector2d com(s.x, s.z);
     double clearance = kInf;
     const auto* box = M.task_.obstacle ? &*M.task_.obstacle : nullptr;
-    const Rot2 R(s.pitch);
     // The base box: its centre and half axes in the world.
     const Eigen::Vector2d centre = com - R * c;
     const Eigen::Vector2d ax = R * Eigen::Vector2d(M.box_half_.x(), 0.0);
@@ -803,61 +808,78 @@ struct JumpModelAccess {
     return smooth ? std::sqrt(p * p + 1.0) : std::abs(p);
   }
 
+  // `slot` as in sweepContact; it is -1 once the flight's margins are emitted.
   template <class Sink>
   static void sweep(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev,
-                    bool smooth_energy = false) {
+                    bool smooth_energy = false, int* slot = nullptr) {
     const auto never = [] { return false; };
-    sweepContact(M, S, sink, ev, smooth_energy, never);
+    sweepContact(M, S, sink, ev, smooth_energy, never, slot);
+    if (slot) *slot = -1;
     sweepFlight(M, S, sink, never);
   }
 
   // The take-off part of sweep(): every contact sample, the energy and the joint maxima. It
   // asks `stop()` after every sample whether to give up (evaluate()'s cut-off; asking every 8
   // samples instead costs 5-7 % more instructions per solve) and returns false if it did.
+  // The samples come in the order of settings.contact_chain, each one step of the CoM-offset
+  // iteration from the sample before it in that order: FromStart in time order from the
+  // standing posture's offset; FromTakeoff t = 0 (from that offset, exact there), then the
+  // take-off t2 (from the converged take-off posture) and backwards from it. `slot`, if given,
+  // receives each sample's index in time order before its margins are emitted.
   template <class Sink, class Stop>
   static bool sweepContact(const JumpModel& M, const Solved& S, Sink& sink, Evaluation* ev,
-                           bool smooth_energy, Stop&& stop) {
+                           bool smooth_energy, Stop&& stop, int* slot = nullptr) {
     const auto& st = M.settings_;
-    double energy = 0.0, prev_power = 0.0, prev_t = 0.0;
+    const bool from_takeoff = st.contact_chain == ContactChain::FromTakeoff;
+    const int n1 = st.samples_phase1, n2 = S.two_step ? st.samples_phase2 : 0;
+    const int count = n1 + n2;
+    double energy = 0.0, power_0 = 0.0, prev_power = 0.0, prev_t = 0.0;
     Sample smp;
     Eigen::Vector2d c_guess = M.c0_;
-    const int n_phases = S.two_step ? 2 : 1;
-    for (int phase = 0; phase < n_phases; ++phase) {
-      const int n = phase == 0 ? st.samples_phase1 : st.samples_phase2;
-      const double t_start = phase == 0 ? 0.0 : S.t1;
-      const double T = phase == 0 ? S.t1 : S.T2;
-      for (int k = 0; k < n; ++k) {
-        const double t = t_start + T * k / (n - 1);
-        contactSample(M, S, t, smp, phase == 1, c_guess);
-        c_guess = smp.c;
-        emitContact(M, smp, sink);
-        double power = 0.0;
-        for (const PairSample* p : {&smp.hind, &smp.front}) {
-          if (!p->contact) continue;
-          power += 2.0 * (absPower(p->tau[0] * p->qd[0], smooth_energy) +
-                          absPower(p->tau[1] * p->qd[1], smooth_energy) +
-                          absPower(p->wheel_tau * p->wheel_rate, smooth_energy));
-          if (ev) {
-            const double haa =
-                std::abs((p == &smp.hind ? M.hind_ : M.front_).haa_lever * p->haa_fz);
-            auto& mt = ev->max_abs_torque_nm;
-            auto& ms = ev->max_abs_speed_rad_s;
-            mt[0] = std::max(mt[0], haa);
-            mt[1] = std::max(mt[1], std::abs(p->tau[0]));
-            mt[2] = std::max(mt[2], std::abs(p->tau[1]));
-            mt[3] = std::max(mt[3], std::abs(p->wheel_tau));
-            ms[1] = std::max(ms[1], std::abs(p->qd[0]));
-            ms[2] = std::max(ms[2], std::abs(p->qd[1]));
-            ms[3] = std::max(ms[3], std::abs(p->wheel_rate));
-          }
+    for (int e = 0; e < count; ++e) {
+      // j: the sample's index in time order (phase 1's n1 samples on [0, t1], then phase 2's n2
+      // on [t1, t2]; both have one at t1).
+      const int j = from_takeoff && e > 0 ? count - e : e;
+      const bool phase2 = j >= n1;
+      const double t = phase2 ? S.t1 + S.T2 * (j - n1) / (n2 - 1) : 0.0 + S.t1 * j / (n1 - 1);
+      if (from_takeoff && e == 1) c_guess = S.c_to;
+      if (slot) *slot = j;
+      contactSample(M, S, t, smp, phase2, c_guess);
+      c_guess = smp.c;
+      emitContact(M, smp, sink);
+      double power = 0.0;
+      for (const PairSample* p : {&smp.hind, &smp.front}) {
+        if (!p->contact) continue;
+        power += 2.0 * (absPower(p->tau[0] * p->qd[0], smooth_energy) +
+                        absPower(p->tau[1] * p->qd[1], smooth_energy) +
+                        absPower(p->wheel_tau * p->wheel_rate, smooth_energy));
+        if (ev) {
+          const double haa = std::abs((p == &smp.hind ? M.hind_ : M.front_).haa_lever * p->haa_fz);
+          auto& mt = ev->max_abs_torque_nm;
+          auto& ms = ev->max_abs_speed_rad_s;
+          mt[0] = std::max(mt[0], haa);
+          mt[1] = std::max(mt[1], std::abs(p->tau[0]));
+          mt[2] = std::max(mt[2], std::abs(p->tau[1]));
+          mt[3] = std::max(mt[3], std::abs(p->wheel_tau));
+          ms[1] = std::max(ms[1], std::abs(p->qd[0]));
+          ms[2] = std::max(ms[2], std::abs(p->qd[1]));
+          ms[3] = std::max(ms[3], std::abs(p->wheel_rate));
         }
-        if (t > prev_t) energy += 0.5 * (power + prev_power) * (t - prev_t);
-        prev_power = power;
-        prev_t = t;
-        if (ev) ev->energy_j = energy;  // so far: a lower bound of the whole
-        if (stop()) return false;
       }
+      // Trapezoids between neighbours in time (none across the instant t1, where phase 1's
+      // last sample and phase 2's first coincide). FromTakeoff: t = 0 and t2 are not
+      // neighbours; the trapezoid from t = 0 closes the sweep.
+      if (e == 0) {
+        power_0 = power;
+      } else if (from_takeoff ? e > 1 && t < prev_t : t > prev_t) {
+        energy += 0.5 * (power + prev_power) * (from_takeoff ? prev_t - t : t - prev_t);
+      }
+      prev_power = power;
+      prev_t = t;
+      if (ev) ev->energy_j = energy;  // so far: a lower bound of the whole
+      if (stop()) return false;
     }
+    if (from_takeoff && count > 1) energy += 0.5 * (power_0 + prev_power) * prev_t;
     if (ev) ev->energy_j = energy;
     return true;
   }
@@ -872,7 +894,7 @@ struct JumpModelAccess {
       const double t = S.t2 + S.Tf * k / S.n_flight;
       const PlanarState s = flightState(M, S, t);
       const std::array<Eigen::Vector2d, 2> q = {S.flight_q[0][k], S.flight_q[1][k]};
-      emitBody(M, t, s, S.flight_c[k], nullptr, &q, sink);
+      emitBody(M, t, s, Rot2(s.pitch), S.flight_c[k], nullptr, &q, sink);
     }
     if (stop()) return false;
     if (M.task_.obstacle) {
@@ -1295,15 +1317,23 @@ bool JumpModel::evaluateConstraints(const Eigen::Ref<const Eigen::VectorXd>& u,
                                     double* energy_j) const {
   Solved S;
   if (!JumpModelAccess::solve(*this, u, S)) return false;
-  int i = 0;
+  // g is in time order (constraintSampleOrigin) whatever the sweep's order: each take-off
+  // sample's margins go to the block of its time index; the flight's follow.
+  int i = 0, slot = -1, slot_now = -1, in_slot = 0;
+  int next = per_contact_sample_ * num_contact_samples_;
   const int n = static_cast<int>(g.size());
   auto sink = [&](ConstraintClass c, double margin, double, int) {
-    if (i < n) g[i] = margin / classScale(c);
+    if (slot != slot_now) {
+      slot_now = slot;
+      in_slot = 0;
+    }
+    const int k = slot >= 0 ? slot * per_contact_sample_ + in_slot++ : next++;
+    if (k < n && (slot < 0 || in_slot <= per_contact_sample_)) g[k] = margin / classScale(c);
     ++i;
   };
   Evaluation ev;
-  JumpModelAccess::sweep(*this, S, sink, &ev, /*smooth_energy=*/true);
-  if (i != num_constraint_samples_)
+  JumpModelAccess::sweep(*this, S, sink, &ev, /*smooth_energy=*/true, &slot);
+  if (i != num_constraint_samples_ || next != num_constraint_samples_)
     throw std::logic_error("JumpModel: constraint count " + std::to_string(i) +
                            " != " + std::to_string(num_constraint_samples_));
   Eigen::Vector4d e;

@@ -20,6 +20,16 @@ const char* toString(PolishSolver s) {
   return "?";
 }
 
+const char* toString(ContactChain c) {
+  switch (c) {
+    case ContactChain::FromStart:
+      return "from_start";
+    case ContactChain::FromTakeoff:
+      return "from_takeoff";
+  }
+  return "?";
+}
+
 const char* toString(ConstraintClass c) {
   switch (c) {
     case ConstraintClass::NormalForce:
@@ -162,6 +172,10 @@ void PlannerSettings::validate() const {
   check(polish_retries >= 0 && polish_retries <= 16, "polish.retries", "in [0, 16]",
         polish_retries);
   check(polish_stall_iterations >= 0, "polish.stall_iterations", ">= 0", polish_stall_iterations);
+  if (contact_chain != ContactChain::FromStart && contact_chain != ContactChain::FromTakeoff)
+    throw std::invalid_argument(
+        "planner settings: sampling.contact_chain must be one of from_start, from_takeoff, got " +
+        std::to_string(static_cast<int>(contact_chain)));
   if (polish_solver != PolishSolver::Sqp && polish_solver != PolishSolver::Ipopt)
     throw std::invalid_argument("planner settings: polish.solver must be one of sqp, ipopt, got " +
                                 std::to_string(static_cast<int>(polish_solver)));
@@ -264,7 +278,11 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"samples_phase2", integer(s.samples_phase2)},
                       {"samples_flight", integer(s.samples_flight)},
                       {"output_dt_s", number(s.output_dt_s)},
-                      {"knot_dt_s", number(s.knot_dt_s)}});
+                      {"knot_dt_s", number(s.knot_dt_s)},
+                      {"contact_chain",
+                       choice(s.contact_chain, std::map<std::string, ContactChain>{
+                                                   {"from_start", ContactChain::FromStart},
+                                                   {"from_takeoff", ContactChain::FromTakeoff}})}});
        }},
       {"bounds",
        [&](const YAML::Node& n) {

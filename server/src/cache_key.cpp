@@ -173,9 +173,10 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   const planner::PlannerSettings& s = jp.settings();
   ByteWriter w;
   // Layout version of this hash; also bumped when the polish's code changes what it returns
-  // (5: the stall count's fix and the closest approach for out-of-reach targets), which the
-  // probes below, run without the polish, do not see.
-  w.put(std::uint32_t{5});
+  // (5: the stall count's fix and the closest approach for out-of-reach targets; 6: the QP's
+  // Newton matrix built without the bound rows, which changes its last bits), which the probes
+  // below, run without the polish, do not see.
+  w.put(std::uint32_t{6});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));

@@ -37,6 +37,22 @@ enum class PolishSolver {
 /// "sqp" or "ipopt".
 const char* toString(PolishSolver s);
 
+/// How the take-off constraint samples chain their CoM-offset iteration (`sampling.contact_chain`;
+/// docs/planner.md, "Simplifications"). Each sample takes one step of the fixed-point iteration
+/// for c(q), warm-started from the sample next to it.
+enum class ContactChain {
+  /// "from_start": in time order from t = 0 (start: the standing posture's offset, exact there).
+  /// The error builds up towards the take-off, where the legs extend fastest: there it
+  /// underestimates the knee speed by 0.8-2 rad/s against the converged fixed point and Simbody.
+  FromStart,
+  /// "from_takeoff": t = 0 as above, then from the take-off t2 backwards, starting at the
+  /// converged take-off posture: exact where the speeds and the envelope bind, and cheaper for
+  /// the DE's cut-off (late violations are found first). Makes the forward preset infeasible.
+  FromTakeoff,
+};
+/// "from_start" or "from_takeoff".
+const char* toString(ContactChain c);
+
 struct PlannerSettings {
   // --- physics of the planar model
   double gravity = 9.81;               ///< [m/s^2]
@@ -65,6 +81,7 @@ struct PlannerSettings {
   int samples_flight = 24;     ///< obstacle/body/attitude samples on [t2, t3], <= 256
   double output_dt_s = 0.001;  ///< sample period of the returned references (<= 0.002)
   double knot_dt_s = 0.02;     ///< largest knot spacing of a plan sent as knots [s]
+  ContactChain contact_chain = ContactChain::FromStart;  ///< see ContactChain
 
   // --- search box of the decision variables (relative to the initial state where noted)
   std::array<double, 2> t1_s = {0.08, 0.6};            ///< four-wheel push duration
