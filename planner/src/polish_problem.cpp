@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <map>
 
 #include "de/batch_team.h"
@@ -121,25 +122,33 @@ bool PolishProblem::derivatives(const Eigen::VectorXd& x, double f, const Eigen:
   const int n = numVariables();
   grad.resize(n);
   jac.resize(m_, n);
-  // Column i on thread `thread` (its own scratch; the model is immutable).
+  // Column i on thread `thread` (its own scratch; the model is immutable). A team's task must
+  // not throw: an exception is kept and rethrown here, on the calling thread.
   std::vector<char> ok(static_cast<std::size_t>(n), 0);
+  std::vector<std::exception_ptr> errors(static_cast<std::size_t>(n));
   auto column = [&](int i, int thread) {
-    Workspace& w = work_[static_cast<std::size_t>(thread)];
-    Eigen::VectorXd xp = x;
-    const double h = 1e-7 * std::max(1.0, std::abs(x[i]));
-    const double step = x[i] + h <= xu_[i] ? h : -h;
-    xp[i] = x[i] + step;
-    double f1 = 0.0;
-    if (!valueWith(w, xp, f1, w.c)) return;
-    grad[i] = (f1 - f) / step;
-    jac.col(i) = (w.c - c) / step;
-    ok[static_cast<std::size_t>(i)] = 1;
+    try {
+      Workspace& w = work_[static_cast<std::size_t>(thread)];
+      Eigen::VectorXd xp = x;
+      const double h = 1e-7 * std::max(1.0, std::abs(x[i]));
+      const double step = x[i] + h <= xu_[i] ? h : -h;
+      xp[i] = x[i] + step;
+      double f1 = 0.0;
+      if (!valueWith(w, xp, f1, w.c)) return;
+      grad[i] = (f1 - f) / step;
+      jac.col(i) = (w.c - c) / step;
+      ok[static_cast<std::size_t>(i)] = 1;
+    } catch (...) {
+      errors[static_cast<std::size_t>(i)] = std::current_exception();
+    }
   };
   if (team_ != nullptr && n > 1) {
     team_->run(n, column);
   } else {
     for (int i = 0; i < n; ++i) column(i, 0);
   }
+  for (const auto& e : errors)
+    if (e) std::rethrow_exception(e);
   return std::all_of(ok.begin(), ok.end(), [](char v) { return v != 0; });
 }
 
