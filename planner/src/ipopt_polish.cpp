@@ -241,7 +241,9 @@ PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0,
   const Ipopt::ApplicationReturnStatus status =
       de::runWithTeam(threads, kPolishTeamSpin, [&](de::BatchTeam* team) {
         nlp->setTeam(team, threads);
-        return app->OptimizeTNLP(nlp);
+        const Ipopt::ApplicationReturnStatus result = app->OptimizeTNLP(nlp);
+        nlp->setTeam(nullptr, 1);  // the team ends with this call
+        return result;
       });
   if (iterations) *iterations = nlp->iterations();
   u = nlp->solution();

@@ -35,7 +35,9 @@ PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, E
   st.print = std::getenv("WJ_SQP_PRINT") != nullptr;
   const DenseSqpResult r = de::runWithTeam(threads, kPolishTeamSpin, [&](de::BatchTeam* team) {
     problem.setTeam(team, threads);
-    return solveDenseSqp(nlp, problem.startPoint(), st);
+    DenseSqpResult result = solveDenseSqp(nlp, problem.startPoint(), st);
+    problem.setTeam(nullptr, 1);  // the team ends with this call
+    return result;
   });
   if (iterations) *iterations = r.iterations;
   if (st.print)
