@@ -8,7 +8,6 @@
 #include <mutex>
 #include <vector>
 
-#include "de/batch_team.h"
 #include "planner/jump_planner.h"
 #include "polish_problem.h"
 
@@ -34,8 +33,7 @@ class PolishNlp final : public Ipopt::TNLP {
 
   const Eigen::VectorXd& solution() const { return best_u_; }
   int iterations() const { return iterations_; }
-  /// Shares the finite-difference Jacobians among `team`'s threads (PolishProblem::setTeam).
-  void setTeam(de::BatchTeam* team, int threads) { problem_.setTeam(team, threads); }
+  PolishProblem& problem() { return problem_; }
 
   bool get_nlp_info(Ipopt::Index& n, Ipopt::Index& m, Ipopt::Index& nnz_jac_g,
                     Ipopt::Index& nnz_h_lag, IndexStyleEnum& index_style) override {
@@ -239,12 +237,7 @@ PolishOutcome polishWithIpopt(const JumpModel& model, const Eigen::VectorXd& u0,
   // working directory would change its plans behind the settings (and the cache key).
   if (app->Initialize("") != Ipopt::Solve_Succeeded) return PolishOutcome::Failed;
   const Ipopt::ApplicationReturnStatus status =
-      de::runWithTeam(threads, kPolishTeamSpin, [&](de::BatchTeam* team) {
-        nlp->setTeam(team, threads);
-        const Ipopt::ApplicationReturnStatus result = app->OptimizeTNLP(nlp);
-        nlp->setTeam(nullptr, 1);  // the team ends with this call
-        return result;
-      });
+      nlp->problem().solveWithThreads(threads, [&] { return app->OptimizeTNLP(nlp); });
   if (iterations) *iterations = nlp->iterations();
   u = nlp->solution();
   switch (status) {

@@ -20,16 +20,6 @@ const char* toString(PolishSolver s) {
   return "?";
 }
 
-const char* toString(ContactChain c) {
-  switch (c) {
-    case ContactChain::FromStart:
-      return "from_start";
-    case ContactChain::FromTakeoff:
-      return "from_takeoff";
-  }
-  return "?";
-}
-
 const char* toString(ConstraintClass c) {
   switch (c) {
     case ConstraintClass::NormalForce:

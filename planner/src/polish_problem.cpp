@@ -6,8 +6,6 @@
 #include <exception>
 #include <map>
 
-#include "de/batch_team.h"
-
 namespace wj::planner {
 
 namespace {

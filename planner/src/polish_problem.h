@@ -12,14 +12,11 @@
 #include <limits>
 #include <vector>
 
+#include "de/batch_team.h"
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
 
 namespace wj::planner {
-
-namespace de {
-class BatchTeam;
-}
 
 /// Constraint violation (scaled margins, target residuals) at which a point counts as meeting
 /// the constraints; the full evaluation re-checks every sample before the point is accepted.
@@ -52,13 +49,21 @@ class PolishProblem {
   /// Objective and constraints at x; false if the model has no trajectory there.
   bool value(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c);
   /// Forward-difference gradient and Jacobian (m x n) at x, given f and c there; each probe
-  /// steps inward at the upper bound so that it stays in the box. With a team (setTeam), the
+  /// steps inward at the upper bound so that it stays in the box. Within solveWithThreads(), the
   /// columns are shared among its threads; the result is the same.
   bool derivatives(const Eigen::VectorXd& x, double f, const Eigen::VectorXd& c,
                    Eigen::VectorXd& grad, Eigen::MatrixXd& jac);
-  /// The threads of `team` (threads of them, calling one included) compute the Jacobian's
-  /// columns from now on; nullptr: the calling thread alone. The team must outlive its use.
-  void setTeam(de::BatchTeam* team, int threads);
+  /// Runs solve() (a solver working on this problem) with `threads` threads, the calling one
+  /// included, sharing the Jacobian's columns, and returns its result.
+  template <class Solve>
+  auto solveWithThreads(int threads, Solve&& solve) -> decltype(solve()) {
+    return de::runWithTeam(threads, kPolishTeamSpin, [&](de::BatchTeam* team) {
+      setTeam(team, threads);
+      auto result = solve();
+      setTeam(nullptr, 1);  // the team ends with this call
+      return result;
+    });
+  }
   /// Max violation of c's bounds.
   double violation(const Eigen::VectorXd& c) const;
 
@@ -74,6 +79,9 @@ class PolishProblem {
   // bound that are a local minimum of their channel over time, and the samples on either side
   // of such a minimum (the minimum can move by a sample as u changes).
   void selectActive(const Eigen::VectorXd& g);
+  // The threads of `team` (threads of them, calling one included) compute the Jacobian's
+  // columns from now on; nullptr: the calling thread alone.
+  void setTeam(de::BatchTeam* team, int threads);
 
   // Scratch of one thread's value(): the full search vector and every sampled margin.
   struct Workspace {

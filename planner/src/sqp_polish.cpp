@@ -3,7 +3,6 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "de/batch_team.h"
 #include "dense_sqp.h"
 #include "planner/jump_planner.h"
 #include "polish_problem.h"
@@ -33,12 +32,8 @@ PolishOutcome polishWithSqp(const JumpModel& model, const Eigen::VectorXd& u0, E
   st.constraint_tolerance = kPolishConstraintTolerance;
   st.stall_iterations = s.polish_stall_iterations;
   st.print = std::getenv("WJ_SQP_PRINT") != nullptr;
-  const DenseSqpResult r = de::runWithTeam(threads, kPolishTeamSpin, [&](de::BatchTeam* team) {
-    problem.setTeam(team, threads);
-    DenseSqpResult result = solveDenseSqp(nlp, problem.startPoint(), st);
-    problem.setTeam(nullptr, 1);  // the team ends with this call
-    return result;
-  });
+  const DenseSqpResult r = problem.solveWithThreads(
+      threads, [&] { return solveDenseSqp(nlp, problem.startPoint(), st); });
   if (iterations) *iterations = r.iterations;
   if (st.print)
     std::fprintf(stderr, "sqp polish (%s): %s after %d iterations, %d evaluations, feasible %d\n",

@@ -50,8 +50,6 @@ enum class ContactChain {
   /// the DE's cut-off (late violations are found first). Makes the forward preset infeasible.
   FromTakeoff,
 };
-/// "from_start" or "from_takeoff".
-const char* toString(ContactChain c);
 
 struct PlannerSettings {
   // --- physics of the planar model
