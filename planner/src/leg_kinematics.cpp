@@ -35,27 +35,33 @@ LegPose PlanarLeg::inversePose(const Eigen::Vector2d& b, double* reach_margin, b
   const double s2 = -std::sqrt(std::max(0.0, 1.0 - c2 * c2));  // knee bent backward: q2 <= 0
   // -b = L (sin a, cos a); l1 sin q1 + l2 sin(q1 + q2) = Lc sin(q1 + beta) with
   // (sin beta, cos beta) = (l2 s2, l1 + l2 c2) / Lc; so q1 = a - beta.
-  const double sa = L > 0.0 ? -b.x() / L : 0.0, ca = L > 0.0 ? -b.y() / L : 1.0;
-  const double sb = l2 * s2 / Lc, cb = (l1 + l2 * c2) / Lc;
   LegPose p;
-  p.s1 = sa * cb - ca * sb;
-  p.c1 = ca * cb + sa * sb;
+  p.sa = L > 0.0 ? -b.x() / L : 0.0;
+  p.ca = L > 0.0 ? -b.y() / L : 1.0;
+  p.sb = l2 * s2 / Lc;
+  p.cb = (l1 + l2 * c2) / Lc;
+  p.s2 = s2;
+  p.c2 = c2;
+  p.s1 = p.sa * p.cb - p.ca * p.sb;
+  p.c1 = p.ca * p.cb + p.sa * p.sb;
   p.s12 = p.s1 * c2 + p.c1 * s2;
   p.c12 = p.c1 * c2 - p.s1 * s2;
-  if (angles) {
-    // q1 = a - beta with a = atan2(sa, ca) and beta = atan2(sb, cb) in [-pi/2, 0] (sb <= 0,
-    // cb >= 0 for l1 >= l2), so q1 lies in (-pi, 3pi/2]: one atan2 of (s1, c1), unwrapped
-    // above pi where a is in the upper half-plane. q2 = -acos(c2) = atan2(s2, c2), s2 <= 0.
-    double q1;
-    if (l1 >= l2) {
-      q1 = std::atan2(p.s1, p.c1);
-      if (q1 < -M_PI_2 && sa > 0.0) q1 += 2.0 * M_PI;
-    } else {
-      q1 = std::atan2(sa, ca) - std::atan2(sb, cb);
-    }
-    p.q = {q1, std::atan2(s2, c2)};
-  }
+  if (angles) solveAngles(p);
   return p;
+}
+
+void PlanarLeg::solveAngles(LegPose& p) const {
+  // q1 = a - beta with a = atan2(sa, ca) and beta = atan2(sb, cb) in [-pi/2, 0] (sb <= 0,
+  // cb >= 0 for l1 >= l2), so q1 lies in (-pi, 3pi/2]: one atan2 of (s1, c1), unwrapped
+  // above pi where a is in the upper half-plane. q2 = -acos(c2) = atan2(s2, c2), s2 <= 0.
+  double q1;
+  if (l1 >= l2) {
+    q1 = std::atan2(p.s1, p.c1);
+    if (q1 < -M_PI_2 && p.sa > 0.0) q1 += 2.0 * M_PI;
+  } else {
+    q1 = std::atan2(p.sa, p.ca) - std::atan2(p.sb, p.cb);
+  }
+  p.q = {q1, std::atan2(p.s2, p.c2)};
 }
 
 Eigen::Matrix2d PlanarLeg::jacobian(const LegPose& p) const {

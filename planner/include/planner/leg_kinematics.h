@@ -15,6 +15,10 @@ struct LegPose {
   Eigen::Vector2d q = Eigen::Vector2d::Zero();  ///< (HFE, KFE) [rad]
   double s1 = 0.0, c1 = 1.0;                    ///< sin, cos of q1
   double s12 = 0.0, c12 = 1.0;                  ///< sin, cos of q1 + q2
+  double s2 = 0.0, c2 = 1.0;                    ///< sin, cos of q2
+  /// From inversePose(): the direction a of -b and the shank offset beta (sines, cosines),
+  /// which PlanarLeg::solveAngles() needs.
+  double sa = 0.0, ca = 1.0, sb = 0.0, cb = 1.0;
 };
 
 /// Two-link planar leg with thigh length l1 and shank length l2 [m].
@@ -40,6 +44,9 @@ struct PlanarLeg {
   /// only the sines and cosines are computed (no inverse trigonometry) and q is left zero.
   LegPose inversePose(const Eigen::Vector2d& b, double* reach_margin = nullptr,
                       bool angles = true) const;
+  /// Fills in q of a pose that inversePose() returned without angles: afterwards it equals,
+  /// bit for bit, what inversePose(b, ..., true) returns.
+  void solveAngles(LegPose& pose) const;
   /// jacobian() at a pose from inversePose().
   Eigen::Matrix2d jacobian(const LegPose& pose) const;
   /// balancingTorque() at a pose from inversePose().
