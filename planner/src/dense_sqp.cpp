@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <limits>
 #include <utility>
+#include <vector>
 
 namespace wj::planner {
 
@@ -52,29 +53,81 @@ constexpr double kQpTolerance = 1e-9;
 
 class DenseQp {
  public:
-  // `rows` rows in all: the first rows - 2n are dense (the linearised constraints); then each
-  // variable j has two unit rows, +e_j (lower bound) at dense + 2j and -e_j (upper) after it.
-  // Those never enter a product: they add to the Newton matrix's diagonal only.
+  // Solves the QP for `A` with `rows` rows in all: the first rows - 2n are dense (the
+  // linearised constraints); then each variable j has two unit rows, +e_j (lower bound) at
+  // dense + 2j and -e_j (upper) after it. Those never enter a product: they add to the Newton
+  // matrix's diagonal only. They bound d to a box, and with `screen` the dense rows that hold
+  // everywhere in that box are left out: they can neither bind nor be violated, so the
+  // solution is the same, and an interior-point iteration costs O(kept rows n^2). False if
+  // the Newton matrix cannot be factorised. The result is usable when the iteration limit
+  // ends the solve first (the SQP's line search judges it). multipliers() are over all rows
+  // (0 on those left out).
+  bool solve(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, const Eigen::MatrixXd& A,
+             const Eigen::VectorXd& b, const Eigen::VectorXd& rho, int max_iterations,
+             bool screen) {
+    const int n = static_cast<int>(A.cols());
+    const int all = static_cast<int>(A.rows()), dense_all = all - 2 * n;
+    kept_.clear();
+    for (int i = 0; i < dense_all; ++i) {
+      if (screen) {
+        // The row's least value over the box b[+e_j] <= d_j <= -b[-e_j].
+        double least = 0.0;
+        for (int j = 0; j < n; ++j) {
+          const double a = A(i, j);
+          least += a > 0.0 ? a * b[dense_all + 2 * j] : -a * b[dense_all + 2 * j + 1];
+        }
+        if (least > b[i] + 1e-12 * (1.0 + std::abs(b[i]))) continue;
+      }
+      kept_.push_back(i);
+    }
+    const int kept = static_cast<int>(kept_.size());
+    rows_offered += dense_all;
+    rows_kept += kept;
+    resize(n, kept + 2 * n);
+    for (int r = 0; r < kept; ++r) {
+      Ad_.row(r) = A.row(kept_[r]);
+      b_[r] = b[kept_[r]];
+      rho_[r] = rho[kept_[r]];
+    }
+    b_.tail(2 * n) = b.tail(2 * n);
+    rho_.tail(2 * n) = rho.tail(2 * n);
+    const bool ok = solveKept(B, g, max_iterations);
+    z_all_.setZero(all);
+    for (int r = 0; r < kept; ++r) z_all_[kept_[r]] = z_[r];
+    z_all_.tail(2 * n) = z_.tail(2 * n);
+    return ok;
+  }
+
+  int solves = 0, iterations = 0;        // counters for diagnosis
+  long rows_offered = 0, rows_kept = 0;  // dense rows, summed over the solves
+  const Eigen::VectorXd& step() const { return d_; }
+  const Eigen::VectorXd& multipliers() const { return z_all_; }
+
+ private:
   void resize(int n, int rows) {
     n_ = n;
     rows_ = rows;
     dense_ = rows - 2 * n;
-    for (Eigen::VectorXd* v : {&w_, &z_, &s_, &y_, &rp_, &rs_, &D_, &h_, &rcw_, &rcs_, &dw_, &dz_,
-                               &ds_, &dy_, &dwa_, &dza_, &dsa_, &dya_, &tmp_rows_})
+    for (Eigen::VectorXd* v :
+         {&w_,  &z_,  &s_,  &y_,   &rp_,  &rs_,  &D_,   &h_,        &rcw_, &rcs_, &dw_,
+          &dz_, &ds_, &dy_, &dwa_, &dza_, &dsa_, &dya_, &tmp_rows_, &b_,   &rho_})
       v->resize(rows);
     for (Eigen::VectorXd* v : {&d_, &rd_, &dd_, &rhs_}) v->resize(n);
     M_.resize(n, n);
+    Ad_.resize(dense_, n);
     AD_.resize(dense_, n);
-    llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
+    if (llt_size_ != n) {
+      llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
+      llt_size_ = n;
+    }
   }
 
-  // Solves the QP; false if the Newton matrix cannot be factorised. The result is usable when
-  // the iteration limit ends the solve first (the SQP's line search judges it). A's last 2n
-  // rows must be the unit rows described at resize() (they are not read).
-  bool solve(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, const Eigen::MatrixXd& A,
-             const Eigen::VectorXd& b, const Eigen::VectorXd& rho, int max_iterations) {
+  // The interior point on the kept rows: Ad_, then the 2n unit rows (b_, rho_ over both).
+  bool solveKept(const Eigen::MatrixXd& B, const Eigen::VectorXd& g, int max_iterations) {
     ++solves;
-    const auto Ad = A.topRows(dense_);
+    const Eigen::MatrixXd& Ad = Ad_;
+    const Eigen::VectorXd& b = b_;
+    const Eigen::VectorXd& rho = rho_;
     d_.setZero();
     for (int i = 0; i < rows_; ++i) {
       const double r0 = -b[i];  // a_i'd - b_i at d = 0
@@ -169,15 +222,8 @@ class DenseQp {
     return true;
   }
 
-  int solves = 0, iterations = 0;  // counters for diagnosis
-  const Eigen::VectorXd& step() const { return d_; }
-  const Eigen::VectorXd& multipliers() const { return z_; }
-
- private:
-  using DenseRows = decltype(std::declval<const Eigen::MatrixXd&>().topRows(0));
-
   // out = A d over all rows (dense rows Ad, then the unit rows).
-  void times(const DenseRows& Ad, const Eigen::VectorXd& d, Eigen::VectorXd& out) const {
+  void times(const Eigen::MatrixXd& Ad, const Eigen::VectorXd& d, Eigen::VectorXd& out) const {
     out.head(dense_).noalias() = Ad * d;
     for (int j = 0; j < n_; ++j) {
       out[dense_ + 2 * j] = d[j];
@@ -185,7 +231,7 @@ class DenseQp {
     }
   }
   // out -= A' v over all rows.
-  void transposeTimesSub(const DenseRows& Ad, const Eigen::VectorXd& v,
+  void transposeTimesSub(const Eigen::MatrixXd& Ad, const Eigen::VectorXd& v,
                          Eigen::VectorXd& out) const {
     out.noalias() -= Ad.transpose() * v.head(dense_);
     for (int j = 0; j < n_; ++j) out[j] -= v[dense_ + 2 * j] - v[dense_ + 2 * j + 1];
@@ -193,7 +239,7 @@ class DenseQp {
 
   // The Newton direction for the complementarity right-hand sides rcw_, rcs_ (residuals in
   // rd_, rp_, rs_; factorisation in llt_).
-  void direction(const DenseRows& Ad, const Eigen::VectorXd& rho) {
+  void direction(const Eigen::MatrixXd& Ad, const Eigen::VectorXd& rho) {
     for (int i = 0; i < rows_; ++i) {
       h_[i] = -rp_[i] + rcw_[i] / z_[i];
       if (rho[i] > 0) h_[i] -= (rcs_[i] - s_[i] * rs_[i]) / y_[i];
@@ -233,11 +279,12 @@ class DenseQp {
     return alpha;
   }
 
-  int n_ = 0, rows_ = 0, dense_ = 0;
+  int n_ = 0, rows_ = 0, dense_ = 0, llt_size_ = -1;
   Eigen::VectorXd d_, rd_, dd_, rhs_;
   Eigen::VectorXd w_, z_, s_, y_, rp_, rs_, D_, h_, rcw_, rcs_, dw_, dz_, ds_, dy_;
-  Eigen::VectorXd dwa_, dza_, dsa_, dya_, tmp_rows_;
-  Eigen::MatrixXd M_, AD_;
+  Eigen::VectorXd dwa_, dza_, dsa_, dya_, tmp_rows_, b_, rho_, z_all_;
+  Eigen::MatrixXd M_, Ad_, AD_;
+  std::vector<int> kept_;
   Eigen::LLT<Eigen::MatrixXd> llt_;
 };
 
@@ -307,14 +354,16 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
   Eigen::MatrixXd J(m, n), J_old(m, n), A(nr, n);
   Eigen::MatrixXd B = Eigen::MatrixXd::Identity(n, n);
   DenseQp qp, qp_try;
-  qp.resize(n, nr);
-  qp_try.resize(n, nr);
 
   auto finish = [&](SqpStatus status) {
     result.status = status;
+    result.qp_solves = qp.solves + qp_try.solves;
+    result.qp_rows_offered = qp.rows_offered + qp_try.rows_offered;
+    result.qp_rows_kept = qp.rows_kept + qp_try.rows_kept;
     if (st.print)
-      std::fprintf(stderr, "sqp QPs: %d solves, %d interior-point iterations\n",
-                   qp.solves + qp_try.solves, qp.iterations + qp_try.iterations);
+      std::fprintf(stderr, "sqp QPs: %d solves, %d interior-point iterations, %ld of %ld rows\n",
+                   qp.solves + qp_try.solves, qp.iterations + qp_try.iterations,
+                   qp.rows_kept + qp_try.rows_kept, qp.rows_offered + qp_try.rows_offered);
     if (best_x.size() > 0) {
       result.x = best_x;
       result.f = best_f;
@@ -399,7 +448,7 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
                                                                                              : 0.0;
     };
     setPenalty(rho);
-    if (!qp.solve(B, grad, A, b, rho_rows, st.qp_max_iterations))
+    if (!qp.solve(B, grad, A, b, rho_rows, st.qp_max_iterations, st.screen_rows))
       return finish(SqpStatus::QpFailed);
     const double v = sumViolation(c);
     double v_lin = linearViolation(qp.step());
@@ -407,7 +456,7 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
     // reduces their violation (Byrd, Nocedal & Waltz 2008, simplified).
     for (int tries = 0; tries < 3 && v_lin > 1e-9 * (1.0 + v) && rho < st.max_penalty; ++tries) {
       setPenalty(10.0 * rho);
-      if (!qp_try.solve(B, grad, A, b, rho_rows, st.qp_max_iterations)) break;
+      if (!qp_try.solve(B, grad, A, b, rho_rows, st.qp_max_iterations, st.screen_rows)) break;
       const double v_try = linearViolation(qp_try.step());
       if (!(v_try < 0.9 * v_lin)) break;
       rho *= 10.0;
@@ -456,7 +505,7 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
           if (rows[k2].kind == QpRow::ConstraintLower) b_soc[k2] -= dc[rows[k2].index];
           if (rows[k2].kind == QpRow::ConstraintUpper) b_soc[k2] += dc[rows[k2].index];
         }
-        if (qp_try.solve(B, grad, A, b_soc, rho_rows, st.qp_max_iterations) &&
+        if (qp_try.solve(B, grad, A, b_soc, rho_rows, st.qp_max_iterations, st.screen_rows) &&
             tryPoint(qp_try.step(), 1.0)) {
           accepted = true;
           soc = true;
@@ -535,7 +584,7 @@ DenseSqpResult solveDenseSqp(const DenseSqpProblem& p, const Eigen::VectorXd& x0
       buildQp();
       setPenalty(rho);
       zero_g.setZero();
-      if (qp_try.solve(B, zero_g, A, b, rho_rows, st.qp_max_iterations)) {
+      if (qp_try.solve(B, zero_g, A, b, rho_rows, st.qp_max_iterations, st.screen_rows)) {
         xt = x + qp_try.step();
         for (int j = 0; j < n; ++j) xt[j] = std::clamp(xt[j], p.xl[j], std::max(p.xl[j], p.xu[j]));
         evaluate(xt, ft, ct);

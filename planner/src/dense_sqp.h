@@ -48,7 +48,10 @@ struct DenseSqpSettings {
   double initial_radius = 0.1;
   int max_backtracks = 12;     ///< line-search halvings before the step is given up
   int qp_max_iterations = 60;  ///< interior-point iterations per QP
-  bool print = false;          ///< one line per iteration on stderr (diagnosis)
+  /// Leave out of each QP the linearised constraints that hold everywhere in the step's box
+  /// (variable bounds and step limit): the same QP solution from fewer rows.
+  bool screen_rows = true;
+  bool print = false;  ///< one line per iteration on stderr (diagnosis)
 };
 
 /// Why the solver stopped.
@@ -74,10 +77,12 @@ struct DenseSqpResult {
   bool feasible = false;   ///< violation <= constraint_tolerance
   int iterations = 0;
   int evaluations = 0;  ///< value() calls
+  int qp_solves = 0;
+  /// Linearised constraint rows offered to the QPs and kept by the screen, summed over them.
+  long qp_rows_offered = 0, qp_rows_kept = 0;
 };
 
-/// Solves `problem` from x0 (projected into the box). Deterministic; the workspaces are sized
-/// once per solve.
+/// Solves `problem` from x0 (projected into the box). Deterministic.
 DenseSqpResult solveDenseSqp(const DenseSqpProblem& problem, const Eigen::VectorXd& x0,
                              const DenseSqpSettings& settings = {});
 

@@ -174,9 +174,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   ByteWriter w;
   // Layout version of this hash; also bumped when the polish's code changes what it returns
   // (5: the stall count's fix and the closest approach for out-of-reach targets; 6: the QP's
-  // Newton matrix built without the bound rows, which changes its last bits), which the probes
-  // below, run without the polish, do not see.
-  w.put(std::uint32_t{6});
+  // Newton matrix built without the bound rows, which changes its last bits; 7: the QP's rows
+  // screened against the step box), which the probes below, run without the polish, do not see.
+  w.put(std::uint32_t{7});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));

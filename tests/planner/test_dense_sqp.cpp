@@ -90,6 +90,55 @@ TEST(DenseSqp, Hs071WithForwardDifferences) {
   EXPECT_NEAR(r.x[1], 4.7429994, 1e-3);
 }
 
+// HS071 with 100 more constraints: x2 <= 4.5, which binds (HS071's x2* = 4.743), and
+// x2 - k/100 x3 <= 10 for k = 1..99, which never bind in [1, 5]^4. The screen leaves the
+// latter out of the QPs once the step limit is small enough; the solution is the same.
+TEST(DenseSqp, ScreeningRowsThatHoldInTheStepBoxChangesNoSolution) {
+  DenseSqpProblem p = hs071();
+  constexpr int kExtra = 100;
+  p.cl.conservativeResize(2 + kExtra);
+  p.cu.conservativeResize(2 + kExtra);
+  p.cl.tail(kExtra).setConstant(-kInf);
+  p.cu.tail(kExtra).setConstant(10.0);
+  p.cu[2] = 4.5;
+  p.value = [value = p.value](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& c) {
+    Eigen::VectorXd c2;
+    if (!value(x, f, c2)) return false;
+    c.resize(2 + kExtra);
+    c.head(2) = c2;
+    for (int k = 0; k < kExtra; ++k) c[2 + k] = x[1] - 0.01 * k * x[2];
+    return true;
+  };
+  p.derivatives = [derivatives = p.derivatives](const Eigen::VectorXd& x, double f,
+                                                const Eigen::VectorXd& c, Eigen::VectorXd& g,
+                                                Eigen::MatrixXd& J) {
+    Eigen::MatrixXd J2;
+    if (!derivatives(x, f, c.head(2), g, J2)) return false;
+    J.setZero(2 + kExtra, 4);
+    J.topRows(2) = J2;
+    for (int k = 0; k < kExtra; ++k) {
+      J(2 + k, 1) = 1.0;
+      J(2 + k, 2) = -0.01 * k;
+    }
+    return true;
+  };
+  DenseSqpSettings screened = converging(), unscreened = converging();
+  screened.screen_rows = true;
+  unscreened.screen_rows = false;
+  const DenseSqpResult a = solveDenseSqp(p, Eigen::Vector4d(1, 5, 5, 1), screened);
+  const DenseSqpResult b = solveDenseSqp(p, Eigen::Vector4d(1, 5, 5, 1), unscreened);
+  ASSERT_TRUE(a.feasible) << toString(a.status);
+  ASSERT_TRUE(b.feasible) << toString(b.status);
+  EXPECT_NEAR(a.x[1], 4.5, 1e-6);
+  EXPECT_GT(a.f, 17.0140173 + 1e-3);
+  EXPECT_NEAR(a.f, b.f, 1e-6 * b.f);  // the same optimum to the solver's tolerance
+  EXPECT_LT((a.x - b.x).lpNorm<Eigen::Infinity>(), 1e-5);
+  EXPECT_EQ(b.qp_rows_kept, b.qp_rows_offered);
+  EXPECT_GT(b.qp_rows_offered, kExtra * b.qp_solves);
+  // Nearly all of the 100 rows go once the steps are short.
+  EXPECT_LT(a.qp_rows_kept, a.qp_rows_offered / 2) << a.qp_rows_kept << " of " << a.qp_rows_offered;
+}
+
 // HS035: min 9 - 8x1 - 6x2 - 4x3 + 2x1^2 + 2x2^2 + x3^2 + 2x1x2 + 2x1x3
 //        s.t. x1 + x2 + 2x3 <= 3, x >= 0.  f* = 1/9 at (4/3, 7/9, 4/9).
 TEST(DenseSqp, Hs035ConvexQuadraticWithAnActiveInequality) {
