@@ -181,6 +181,8 @@ struct Solved {
   PlanarState mid, takeoff, touchdown;
   Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
   double front_wheel_rate_t1 = 0.0;
+  LegPose front_pose_t1;  // inversePose(front_b_t1) without angles, and its reach margin
+  double front_reach_t1 = 0.0;
   // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
   // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
   // moving (docs/planner.md, "Flight").
@@ -216,12 +218,12 @@ struct Sample {
   Rot2 R;  // of s.pitch
   PairSample hind, front;
   // What the posture half of a sample (contactPosture) leaves for its statics half: the phase,
-  // the time in it, the poses without angles, and the axles' rates relative to the CoM (base
-  // frame) and the hind axle's speed.
+  // the time in it, the poses without angles, the axles relative to the CoM (base frame) and
+  // the hind axle's speed.
   bool phase2 = false;
   double local = 0.0;
   LegPose pose_h, pose_f;
-  Eigen::Vector2d rel_dot_h = Eigen::Vector2d::Zero(), rel_dot_f = Eigen::Vector2d::Zero();
+  Eigen::Vector2d rel_h = Eigen::Vector2d::Zero(), rel_f = Eigen::Vector2d::Zero();
   double hind_axle_vx = 0.0;
 };
 
@@ -250,8 +252,9 @@ Segment segmentAt(const Solved& S, double t) {
 }  // namespace
 
 struct JumpModelAccess {
-  // Solves the take-off for candidate u and, with `flight`, the flight attitude (otherwise
-  // solveFlight() completes S later). Returns false if u has no valid trajectory.
+  // Solves the take-off for candidate u and, with `flight`, its converged posture at take-off
+  // and the flight attitude (otherwise solveTakeoffPosture() and solveFlight() complete S
+  // later). Returns false if u has no valid trajectory.
   static bool solve(const JumpModel& M, const Eigen::Ref<const Eigen::VectorXd>& u, Solved& S,
                     bool flight = true) {
     const auto& st = M.settings_;
@@ -351,20 +354,30 @@ struct JumpModelAccess {
     S.Tf = (S.takeoff.vz + std::sqrt(disc)) / g;
     if (!(S.Tf > 1e-3)) return false;
     S.t3 = S.t2 + S.Tf;
-    Sample smp;
     if (S.two_step) {
+      Sample smp;
       // The front legs hold their t1 posture relative to the body once lifted.
       contactSample(M, S, S.t1, smp, /*phase2=*/false, M.c0_, /*converge=*/true);
       S.front_b_t1 = M.leg_.forward(smp.front.q);
       S.front_wheel_rate_t1 = smp.front.wheel_rate;
+      S.front_pose_t1 = M.leg_.inversePose(S.front_b_t1, &S.front_reach_t1, /*angles=*/false);
     }
+    if (flight) {
+      solveTakeoffPosture(M, S);
+      solveFlight(M, S);
+    }
+    return true;
+  }
+
+  // The converged posture at take-off (q_to, c_to, qd_to, wheel_to) of a solved take-off, which
+  // the flight needs (and the FromTakeoff chain).
+  static void solveTakeoffPosture(const JumpModel& M, Solved& S) {
+    Sample smp;
     contactSample(M, S, S.t2, smp, S.two_step, M.c0_, /*converge=*/true);
     S.q_to = {smp.hind.q, smp.front.q};
     S.c_to = smp.c;
     S.qd_to = {smp.hind.qd, smp.front.qd};
     S.wheel_to = {smp.hind.wheel_rate, smp.front.wheel_rate};
-    if (flight) solveFlight(M, S);
-    return true;
   }
 
   // The flight attitude and the touchdown state of a solved take-off.
@@ -595,33 +608,32 @@ struct JumpModelAccess {
     const double r = M.wheel_radius_;
     out.R = Rot2(s.pitch);
     const Rot2& R = out.R;
-    const Eigen::Vector2d com(s.x, s.z), vcom(s.vx, s.vz);
-    // Axle positions relative to the CoM in the base frame, and their rates.
-    auto relative = [&](const Eigen::Vector2d& axle, const Eigen::Vector2d& v, Eigen::Vector2d& rel,
-                        Eigen::Vector2d& rel_dot) {
-      rel = R.transposeTimes(axle - com);
-      rel_dot = R.transposeTimes(v - vcom) + s.pitch_rate * Eigen::Vector2d(rel.y(), -rel.x());
-    };
+    const Eigen::Vector2d com(s.x, s.z);
+    // Axle positions relative to the CoM in the base frame.
+    auto relative = [&](const Eigen::Vector2d& axle) { return R.transposeTimes(axle - com); };
     PairSample& H = out.hind;
     PairSample& F = out.front;
     H = PairSample{};
     F = PairSample{};
     H.contact = true;
     H.axle = Eigen::Vector2d(s.x + dH, r);
-    const Eigen::Vector2d vH(s.vx + dHdot, 0.0);
-    out.hind_axle_vx = vH.x();
-    Eigen::Vector2d relH, relF = Eigen::Vector2d::Zero();
-    out.rel_dot_f.setZero();
-    relative(H.axle, vH, relH, out.rel_dot_h);
+    out.hind_axle_vx = s.vx + dHdot;
+    Eigen::Vector2d& relH = out.rel_h;
+    Eigen::Vector2d& relF = out.rel_f;
+    relH = relative(H.axle);
+    relF.setZero();
     F.contact = !phase2;
     if (F.contact) {
       F.axle = Eigen::Vector2d(s.x + M.d_front_, r);
-      relative(F.axle, Eigen::Vector2d(s.vx, 0.0), relF, out.rel_dot_f);
+      relF = relative(F.axle);
     }
     LegPose& pH = out.pose_h;
     LegPose& pF = out.pose_f;
     pF = LegPose{};
-    if (phase2) pF = M.leg_.inversePose(S.front_b_t1, &F.reach, /*angles=*/false);
+    if (phase2) {
+      pF = S.front_pose_t1;
+      F.reach = S.front_reach_t1;
+    }
     Eigen::Vector2d c = c_guess;
     Eigen::Vector2d step_before = Eigen::Vector2d::Zero();
     for (int it = 0; it < (converge ? kCoMMaxIterations : kCoMIterations); ++it) {
@@ -657,8 +669,14 @@ struct JumpModelAccess {
     const ComOffset co = comOffset(M, pH, pF);
     H.q = pH.q;
     F.q = pF.q;
-    const Eigen::Vector2d& relH_dot = out.rel_dot_h;
-    const Eigen::Vector2d& relF_dot = out.rel_dot_f;
+    // The axles' rates relative to the CoM in the base frame.
+    const Eigen::Vector2d vcom(s.vx, s.vz);
+    auto rate = [&](const Eigen::Vector2d& rel, const Eigen::Vector2d& v) -> Eigen::Vector2d {
+      return out.R.transposeTimes(v - vcom) + s.pitch_rate * Eigen::Vector2d(rel.y(), -rel.x());
+    };
+    const Eigen::Vector2d relH_dot = rate(out.rel_h, Eigen::Vector2d(out.hind_axle_vx, 0.0));
+    const Eigen::Vector2d relF_dot =
+        F.contact ? rate(out.rel_f, Eigen::Vector2d(s.vx, 0.0)) : Eigen::Vector2d::Zero();
     // Joint rates: b_i = rel_i - hfe_i + c(q) and b_i' = J_i q_i', so
     // (J_i - C_i) q_i' - C_j q_j' = rel_i' for the pairs in contact.
     const Eigen::Matrix2d JH = M.leg_.jacobian(pH);
@@ -1337,8 +1355,12 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
   // 1. The target's position from the ballistic CoM; 2. the take-off samples.
   if (bounded) target_bound = JumpModelAccess::targetPositionCost(*this, S);
   if (cut()) return;
+  // (The converged take-off posture is needed by the flight, and by the FromTakeoff chain.)
+  const bool posture_first = settings_.contact_chain == ContactChain::FromTakeoff;
+  if (posture_first) JumpModelAccess::solveTakeoffPosture(*this, S);
   if (!JumpModelAccess::sweepContact(*this, S, sink, &ev, false, cut)) return;
   // 3. The flight attitude and the whole target error.
+  if (!posture_first) JumpModelAccess::solveTakeoffPosture(*this, S);
   JumpModelAccess::solveFlight(*this, S);
   Eigen::Vector4d e;
   JumpModelAccess::targetErrors(*this, S, e, ev.predicted);
