@@ -955,7 +955,10 @@ struct JumpModelAccess {
       power[j] = p_sum;
       if (i > 0 && j + 1 < count) energy += trapezoid(j + 1);
       if (i > 0 && j == 1) energy += trapezoid(1);
-      if (ev) ev->energy_j = energy;
+      // A lower bound of the final sum, which adds the same >= 0 terms and more in another
+      // order: each sum is within (count - 1) eps of its exact value (~1e-14 relative for
+      // 100 samples), so 1e-12 less never exceeds it.
+      if (ev) ev->energy_j = energy * (1.0 - 1e-12);
       if (stop()) return false;
     }
     energy = 0.0;
