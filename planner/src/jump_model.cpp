@@ -181,7 +181,7 @@ struct Solved {
   PlanarState mid, takeoff, touchdown;
   Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
   double front_wheel_rate_t1 = 0.0;
-  LegPose front_pose_t1;  // inversePose(front_b_t1) without angles, and its reach margin
+  LegPose front_pose_t1;  // inversePose(front_b_t1), and its reach margin
   double front_reach_t1 = 0.0;
   // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
   // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
@@ -360,7 +360,7 @@ struct JumpModelAccess {
       contactSample(M, S, S.t1, smp, /*phase2=*/false, M.c0_, /*converge=*/true);
       S.front_b_t1 = M.leg_.forward(smp.front.q);
       S.front_wheel_rate_t1 = smp.front.wheel_rate;
-      S.front_pose_t1 = M.leg_.inversePose(S.front_b_t1, &S.front_reach_t1, /*angles=*/false);
+      S.front_pose_t1 = M.leg_.inversePose(S.front_b_t1, &S.front_reach_t1);
     }
     if (flight) {
       solveTakeoffPosture(M, S);
@@ -587,7 +587,8 @@ struct JumpModelAccess {
   }
 
   // The first half of contactSample: the state, the axles, the CoM offset out.c and the poses
-  // (sines and cosines only). What the next sample's warm start needs, and no more.
+  // (sines and cosines only, but for the front pair's fixed phase-2 pose). What the next
+  // sample's warm start needs, and no more.
   static void contactPosture(const JumpModel& M, const Solved& S, double t, Sample& out,
                              bool phase2, const Eigen::Vector2d& c_guess, bool converge) {
     out.t = t;
@@ -665,7 +666,7 @@ struct JumpModelAccess {
     LegPose& pH = out.pose_h;
     LegPose& pF = out.pose_f;
     M.leg_.solveAngles(pH);
-    M.leg_.solveAngles(pF);
+    if (F.contact) M.leg_.solveAngles(pF);  // else the phase-2 pose, solved once (Solved)
     const ComOffset co = comOffset(M, pH, pF);
     H.q = pH.q;
     F.q = pF.q;
