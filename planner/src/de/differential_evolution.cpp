@@ -50,7 +50,10 @@ Box checkedBox(const Problem& problem) {
   require(box.upper.size() == dimension, "Problem::upperBounds().size()",
           "equal to dimension() = " + std::to_string(dimension), box.upper.size());
   for (int j = 0; j < dimension; ++j) {
-    const std::string index = "[" + std::to_string(j) + "]";
+    // (Appended, not "[" + ... : GCC 12 at -O3 warns falsely on that form, GCC bug 105651.)
+    std::string index = "[";
+    index += std::to_string(j);
+    index += ']';
     require(std::isfinite(box.lower(j)), "lower bound" + index, "finite", box.lower(j));
     require(std::isfinite(box.upper(j)), "upper bound" + index, "finite", box.upper(j));
     std::ostringstream range;
@@ -68,7 +71,11 @@ void checkWarmStart(const Eigen::MatrixXd& warm_start, int dimension) {
           "equal to the problem dimension " + std::to_string(dimension), warm_start.rows());
   for (Eigen::Index c = 0; c < warm_start.cols(); ++c) {
     for (Eigen::Index r = 0; r < warm_start.rows(); ++r) {
-      const std::string entry = "(" + std::to_string(r) + ", " + std::to_string(c) + ")";
+      std::string entry = "(";  // appended: see checkedBox()
+      entry += std::to_string(r);
+      entry += ", ";
+      entry += std::to_string(c);
+      entry += ')';
       require(std::isfinite(warm_start(r, c)), "warm_start" + entry, "finite", warm_start(r, c));
     }
   }
