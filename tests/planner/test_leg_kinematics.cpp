@@ -52,6 +52,29 @@ TEST(PlanarLeg, InverseKeepsTheAngleBranchBeyondPi) {
   }
 }
 
+// The take-off sweep solves a pose without angles first and its angles later (solveAngles):
+// the result must be what inversePose with angles returns, to the bit, for equal and unequal
+// links (the latter take the two-atan2 branch) and for points out of reach.
+TEST(PlanarLeg, AnglesSolvedLaterAreTheSameToTheBit) {
+  for (const PlanarLeg& leg : {PlanarLeg{0.2, 0.2}, PlanarLeg{0.25, 0.18}, PlanarLeg{0.15, 0.22}}) {
+    for (double x = -0.45; x <= 0.45; x += 0.05) {
+      for (double z = -0.45; z <= 0.2; z += 0.05) {
+        const Eigen::Vector2d b(x, z);
+        double reach_a = 0.0, reach_b = 0.0;
+        const LegPose with = leg.inversePose(b, &reach_a, /*angles=*/true);
+        LegPose later = leg.inversePose(b, &reach_b, /*angles=*/false);
+        EXPECT_EQ(later.q, Eigen::Vector2d::Zero()) << b.transpose();
+        leg.solveAngles(later);
+        EXPECT_EQ(later.q[0], with.q[0]) << b.transpose();
+        EXPECT_EQ(later.q[1], with.q[1]) << b.transpose();
+        EXPECT_EQ(later.s1, with.s1);
+        EXPECT_EQ(later.c12, with.c12);
+        EXPECT_EQ(reach_a, reach_b);
+      }
+    }
+  }
+}
+
 TEST(PlanarLeg, ReachMarginOutsideTheAnnulus) {
   double reach = 0.0;
   (void)kLeg.inverse(Eigen::Vector2d(0.0, -0.45), &reach);
