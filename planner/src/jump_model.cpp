@@ -411,13 +411,6 @@ struct JumpModelAccess {
     auto cross = [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
       return a.y() * b.x() - a.x() * b.y();  // y component of (a_x, 0, a_z) x (b_x, 0, b_z)
     };
-    // R_y(q) v and its derivative, from sin and cos of q.
-    auto Rv = [](double sn, double cs, const Eigen::Vector2d& v) {
-      return Eigen::Vector2d(cs * v.x() + sn * v.y(), -sn * v.x() + cs * v.y());
-    };
-    auto dRv = [](double sn, double cs, const Eigen::Vector2d& v) {
-      return Eigen::Vector2d(-sn * v.x() + cs * v.y(), -cs * v.x() - sn * v.y());
-    };
     const double l1 = M.leg_.l1;
     std::array<Eigen::Vector2d, 4> p, v;  // thigh and lower CoMs of each pair, and rates
     std::array<double, 4> m{}, i{}, w{};
@@ -528,40 +521,43 @@ struct JumpModelAccess {
     return r;
   }
 
-  // Kinematics and statics of both pairs at time t of the take-off.
-  // The CoM in the base frame and its Jacobians with respect to each pair's (HFE, KFE).
-  struct ComOffset {
-    Eigen::Vector2d c = Eigen::Vector2d::Zero();
-    std::array<Eigen::Matrix2d, 2> C{};  // d c / d q_pair, pair 0 hind, 1 front
-  };
+  // R_y(q) v = (c x + s z, -s x + c z) and its derivative (-s x + c z, -c x - s z).
+  static Eigen::Vector2d Rv(double sn, double cs, const Eigen::Vector2d& v) {
+    return Eigen::Vector2d(cs * v.x() + sn * v.y(), -sn * v.x() + cs * v.y());
+  }
+  static Eigen::Vector2d dRv(double sn, double cs, const Eigen::Vector2d& v) {
+    return Eigen::Vector2d(-sn * v.x() + cs * v.y(), -cs * v.x() - sn * v.y());
+  }
 
-  // With `jacobians` false, only c (C is left unset).
-  static ComOffset comOffset(const JumpModel& M, const LegPose& hind, const LegPose& front,
-                             bool jacobians = true) {
-    // R_y(q) v = (c x + s z, -s x + c z) and its derivative (-s x + c z, -c x - s z).
-    auto Rv = [](double sn, double cs, const Eigen::Vector2d& v) {
-      return Eigen::Vector2d(cs * v.x() + sn * v.y(), -sn * v.x() + cs * v.y());
-    };
-    auto dRv = [](double sn, double cs, const Eigen::Vector2d& v) {
-      return Eigen::Vector2d(-sn * v.x() + cs * v.y(), -cs * v.x() - sn * v.y());
-    };
-    ComOffset out;
+  // The CoM in the base frame for the pairs' poses.
+  static Eigen::Vector2d comOffset(const JumpModel& M, const LegPose& hind, const LegPose& front) {
     Eigen::Vector2d first = M.moment_fixed_;
     const double l1 = M.leg_.l1;
     for (int pair = 0; pair < 2; ++pair) {
       const LegPose& P = pair == 0 ? hind : front;
       const JumpModel::Geometry& g = pair == 0 ? M.hind_ : M.front_;
-      const Eigen::Vector2d knee(-l1 * P.s1, -l1 * P.c1), dknee(-l1 * P.c1, l1 * P.s1);
+      const Eigen::Vector2d knee(-l1 * P.s1, -l1 * P.c1);
       first += 2.0 * (g.m_thigh * (g.hfe_b + Rv(P.s1, P.c1, g.c_thigh)) +
                       g.m_lower * (g.hfe_b + knee + Rv(P.s12, P.c12, g.c_lower)));
-      if (!jacobians) continue;
-      out.C[pair].col(0) = 2.0 / M.mass_ *
-                           (g.m_thigh * dRv(P.s1, P.c1, g.c_thigh) +
-                            g.m_lower * (dknee + dRv(P.s12, P.c12, g.c_lower)));
-      out.C[pair].col(1) = 2.0 / M.mass_ * g.m_lower * dRv(P.s12, P.c12, g.c_lower);
     }
-    out.c = first / M.mass_;
-    return out;
+    return first / M.mass_;
+  }
+
+  // Its Jacobians d c / d q_pair with respect to each pair's (HFE, KFE): pair 0 hind, 1 front.
+  static std::array<Eigen::Matrix2d, 2> comJacobians(const JumpModel& M, const LegPose& hind,
+                                                     const LegPose& front) {
+    std::array<Eigen::Matrix2d, 2> C;
+    const double l1 = M.leg_.l1;
+    for (int pair = 0; pair < 2; ++pair) {
+      const LegPose& P = pair == 0 ? hind : front;
+      const JumpModel::Geometry& g = pair == 0 ? M.hind_ : M.front_;
+      const Eigen::Vector2d dknee(-l1 * P.c1, l1 * P.s1);
+      C[pair].col(0) = 2.0 / M.mass_ *
+                       (g.m_thigh * dRv(P.s1, P.c1, g.c_thigh) +
+                        g.m_lower * (dknee + dRv(P.s12, P.c12, g.c_lower)));
+      C[pair].col(1) = 2.0 / M.mass_ * g.m_lower * dRv(P.s12, P.c12, g.c_lower);
+    }
+    return C;
   }
 
   static LegPose poseOf(const Eigen::Vector2d& q) {
@@ -641,7 +637,7 @@ struct JumpModelAccess {
       // c(q) needs only the sines and cosines of the joint angles.
       pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach, /*angles=*/false);
       if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach, false);
-      const Eigen::Vector2d c_next = comOffset(M, pH, pF, /*jacobians=*/false).c;
+      const Eigen::Vector2d c_next = comOffset(M, pH, pF);
       const Eigen::Vector2d step = c_next - c;
       c = c_next;
       if (step.squaredNorm() < kCoMTolerance * kCoMTolerance) break;
@@ -653,7 +649,7 @@ struct JumpModelAccess {
     }
     pH = M.leg_.inversePose(relH - M.hind_.hfe_b + c, &H.reach, false);
     if (F.contact) pF = M.leg_.inversePose(relF - M.front_.hfe_b + c, &F.reach, false);
-    out.c = comOffset(M, pH, pF, false).c;
+    out.c = comOffset(M, pH, pF);
     if (!F.contact) F.axle = com + R * (-c + M.front_.hfe_b + S.front_b_t1);
   }
 
@@ -667,7 +663,7 @@ struct JumpModelAccess {
     LegPose& pF = out.pose_f;
     M.leg_.solveAngles(pH);
     if (F.contact) M.leg_.solveAngles(pF);  // else the phase-2 pose, solved once (Solved)
-    const ComOffset co = comOffset(M, pH, pF);
+    const std::array<Eigen::Matrix2d, 2> C_pair = comJacobians(M, pH, pF);
     H.q = pH.q;
     F.q = pF.q;
     // The axles' rates relative to the CoM in the base frame.
@@ -685,7 +681,7 @@ struct JumpModelAccess {
       const Eigen::Matrix2d JF = M.leg_.jacobian(pF);
       // [A  B; C  D] (qd_H, qd_F) = (relH', relF') with A = J_H - C_H, B = -C_F, C = -C_H,
       // D = J_F - C_F, by the Schur complement of A (closed-form 2x2 inverses).
-      const Eigen::Matrix2d A = JH - co.C[0], B = -co.C[1], C = -co.C[0], D = JF - co.C[1];
+      const Eigen::Matrix2d A = JH - C_pair[0], B = -C_pair[1], C = -C_pair[0], D = JF - C_pair[1];
       const double det_a = A.determinant();
       bool ok = std::abs(det_a) > 1e-12;
       if (ok) {
@@ -704,7 +700,7 @@ struct JumpModelAccess {
         F.qd = Eigen::Vector2d::Constant(1e3);
       }
     } else {
-      const Eigen::Matrix2d A = JH - co.C[0];
+      const Eigen::Matrix2d A = JH - C_pair[0];
       H.qd = std::abs(A.determinant()) > 1e-12 ? Eigen::Vector2d(A.inverse() * relH_dot)
                                                : Eigen::Vector2d(1e3, 1e3);
       F.qd.setZero();
@@ -1014,7 +1010,7 @@ struct JumpModelAccess {
     for (int pair = 0; pair < 2; ++pair)
       q_apex[pair] = flightPosture(M, S, S.q_to[pair], S.t2 + t_apex, nullptr);
     out.apex = event(S.t2 + t_apex, flightState(M, S, S.t2 + t_apex),
-                     comOffset(M, poseOf(q_apex[0]), poseOf(q_apex[1])).c);
+                     comOffset(M, poseOf(q_apex[0]), poseOf(q_apex[1])));
     out.touchdown = event(S.t3, S.touchdown, M.c_land_);
     const PlanarState& s0 = M.initial_;
     const PlanarState& at = tgt.event == TargetEvent::Apex ? out.apex.state : S.touchdown;
@@ -1246,8 +1242,7 @@ JumpModel::SampleOrigin JumpModel::constraintSampleOrigin(int i) const {
 Eigen::Vector2d JumpModel::comInBase(const Eigen::Vector2d& q_hind,
                                      const Eigen::Vector2d& q_front) const {
   return JumpModelAccess::comOffset(*this, JumpModelAccess::poseOf(q_hind),
-                                    JumpModelAccess::poseOf(q_front))
-      .c;
+                                    JumpModelAccess::poseOf(q_front));
 }
 
 double JumpModel::standingComHeight(const model::RobotModel& robot, const Eigen::VectorXd& q) {
