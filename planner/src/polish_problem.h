@@ -58,10 +58,13 @@ class PolishProblem {
   template <class Solve>
   auto solveWithThreads(int threads, Solve&& solve) -> decltype(solve()) {
     return de::runWithTeam(threads, kPolishTeamSpin, [&](de::BatchTeam* team) {
+      // The team ends with this call, however solve() leaves it.
+      struct Forget {
+        PolishProblem& p;
+        ~Forget() { p.setTeam(nullptr, 1); }
+      } forget{*this};
       setTeam(team, threads);
-      auto result = solve();
-      setTeam(nullptr, 1);  // the team ends with this call
-      return result;
+      return solve();
     });
   }
   /// Max violation of c's bounds.
