@@ -173,8 +173,8 @@ int main(int argc, char** argv) {
       "--check-config", check_path,
       "validate a robot client YAML (strict reader and ranges) and exit: 0 valid, 2 not");
   app.add_option("--planner", opt.planner, "planning service HOST:PORT (none: no jumps)");
-  app.add_option("--scenario", opt.scenario, "forward | vertical")
-      ->check(CLI::IsMember({"forward", "vertical"}));
+  app.add_option("--scenario", opt.scenario,
+                 "a scenario of the config's scenarios: (forward, vertical, ...)");
   app.add_flag("--via-can", opt.via_can,
                "sim backend: drive the simulated motors through emulated MIT-mode CAN frames");
   app.add_option("--seed", opt.seed, "sim backend: sensor-noise seed");

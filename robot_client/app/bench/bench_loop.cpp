@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
   wj::nmpc::LocomotionController controller(robot, wj::nmpc::LocomotionSettings{});
   NoopRobot noop(standingSensors(controller));
   rc::MpcWorker mpc(controller, settings.loop.mpc_period_s, /*lockstep=*/false);
-  rc::ScenarioSettings scenario = settings.forward;
+  rc::ScenarioSettings scenario = settings.scenario("forward");
   scenario.duration_s = 600.0;
   rc::ControlLoop loop(robot, settings, scenario, noop, controller, mpc, nullptr, nullptr);
 

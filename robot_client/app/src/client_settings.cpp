@@ -119,10 +119,12 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
 }  // namespace
 
 const ScenarioSettings& ClientSettings::scenario(std::string_view name) const {
-  if (name == "forward") return forward;
-  if (name == "vertical") return vertical;
-  throw std::invalid_argument("scenario '" + std::string(name) +
-                              "' is not one of forward, vertical");
+  std::string names;
+  for (const ScenarioSettings& s : scenarios) {
+    if (s.name == name) return s;
+    names += (names.empty() ? "" : ", ") + s.name;
+  }
+  throw std::invalid_argument("scenario '" + std::string(name) + "' is not one of " + names);
 }
 
 void ClientSettings::validate() const {
@@ -151,8 +153,9 @@ void ClientSettings::validate() const {
     throw std::invalid_argument(
         "robot client settings: planner.tls.cert_file and planner.tls.key_file go together");
   executor.validate();
-  validateScenario(forward, "forward.");
-  validateScenario(vertical, "vertical.");
+  if (scenarios.empty())
+    throw std::invalid_argument("robot client settings: scenarios must name at least one scenario");
+  for (const ScenarioSettings& s : scenarios) validateScenario(s, "scenarios." + s.name + ".");
 }
 
 ClientSettings parseClientSettings(std::string_view yaml_text, const std::string& origin) {
@@ -218,8 +221,8 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
   s.executor = parseExecutor(root.map("executor"));
   {
     StrictYamlMap m = root.map("scenarios");
-    s.forward = parseScenario(m.map("forward"), "forward");
-    s.vertical = parseScenario(m.map("vertical"), "vertical");
+    for (const std::string& name : m.keys())
+      s.scenarios.push_back(parseScenario(m.map(name), name));
     m.finish();
   }
   root.finish();

@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace wj {
 
@@ -33,6 +34,12 @@ class StrictYamlMap {
   int integer(const std::string& key) { return as<int>(key); }
   YAML::Node node(const std::string& key) { return get(key); }
   bool has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+  /// The keys of this map in document order (for maps whose keys are names, not fields).
+  std::vector<std::string> keys() const {
+    std::vector<std::string> out;
+    for (const auto& kv : node_) out.push_back(kv.first.as<std::string>());
+    return out;
+  }
   /// The nested map `key`; finish() it separately.
   StrictYamlMap map(const std::string& key) {
     return StrictYamlMap(get(key), path_ + key + ".", origin_);

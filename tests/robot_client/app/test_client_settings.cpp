@@ -26,11 +26,18 @@ std::string replace(std::string text, const std::string& from, const std::string
 TEST(ClientSettings, ShippedConfigParsesAndValidates) {
   const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
   EXPECT_DOUBLE_EQ(s.loop.period_s, 0.001);
-  EXPECT_DOUBLE_EQ(s.forward.run_up_speed_m_s, 3.0);
-  EXPECT_DOUBLE_EQ(s.forward.wall_height_m, 0.25);
-  EXPECT_EQ(s.vertical.event, planner::TargetEvent::Apex);
-  EXPECT_EQ(&s.scenario("forward"), &s.forward);
-  EXPECT_THROW((void)s.scenario("backflip"), std::invalid_argument);
+  EXPECT_DOUBLE_EQ(s.scenario("forward").run_up_speed_m_s, 3.0);
+  EXPECT_DOUBLE_EQ(s.scenario("forward").wall_height_m, 0.25);
+  EXPECT_EQ(s.scenario("vertical").event, planner::TargetEvent::Apex);
+  EXPECT_EQ(s.scenarios.front().name, "forward");
+  try {
+    (void)s.scenario("moonwalk");
+    FAIL() << "accepted an unknown scenario";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'moonwalk' is not one of forward, vertical"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(ClientSettings, UnknownKeyIsNamed) {
@@ -63,6 +70,25 @@ TEST(ClientSettings, OutOfRangeValueNamesFieldAndRange) {
     EXPECT_NE(std::string(e.what()).find("loop.period_s must be in [0.0001, 0.01]"),
               std::string::npos)
         << e.what();
+  }
+}
+
+TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
+  const std::string config = shippedConfig();
+  const auto begin = config.find("  vertical:");
+  ASSERT_NE(begin, std::string::npos);
+  std::string hop = config.substr(begin);
+  hop.replace(0, std::string("  vertical:").size(), "  hop:");
+  const ClientSettings s = parseClientSettings(config + hop, "x.yaml");
+  ASSERT_EQ(s.scenarios.size(), 3u);
+  EXPECT_EQ(s.scenarios.back().name, "hop");
+  EXPECT_EQ(s.scenario("hop").event, planner::TargetEvent::Apex);
+  const std::string bad = replace(hop, "stand_s: 1.0", "stand_s: -1.0");
+  try {
+    (void)parseClientSettings(config + bad, "x.yaml");
+    FAIL() << "accepted a negative stand_s";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("scenarios.hop.stand_s"), std::string::npos) << e.what();
   }
 }
 

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "estimator/estimator_settings.h"
 #include "planner/jump_plan.h"
@@ -108,10 +109,11 @@ struct ClientSettings {
   sim::ExecutorSettings executor;  ///< take-off, flight and landing gains
   /// The state estimator's noises and limits (the estimator's defaults; docs/estimator.md).
   estimation::EstimatorSettings estimator;
-  ScenarioSettings forward;   ///< the "forward" scenario
-  ScenarioSettings vertical;  ///< the "vertical" scenario
+  /// The scenarios of `scenarios:` in document order (forward, vertical, ...), each named by
+  /// its key; a new scenario is a new entry in the YAML, not new code.
+  std::vector<ScenarioSettings> scenarios;
 
-  /// The scenario called `name` ("forward" or "vertical"); throws std::invalid_argument.
+  /// The scenario called `name`; throws std::invalid_argument listing the names there are.
   const ScenarioSettings& scenario(std::string_view name) const;
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
