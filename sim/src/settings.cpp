@@ -118,9 +118,47 @@ void SimSettings::validate() const {
     requireNonNegative(sigma, "noise standard deviations");
   if (!(std::abs(terrain.slope_rad) < 1.2))
     throw std::invalid_argument("sim settings: terrain.slope_rad must be within +-1.2 rad");
+  plant.validate();
   for (const Box& b : terrain.boxes)
     if (!(b.min.array() < b.max.array()).all())
       throw std::invalid_argument("sim settings: every terrain box needs min < max");
+}
+
+SimSettings applyPlant(const SimSettings& nominal, const PlantSettings& plant) {
+  plant.validate();
+  SimSettings s = nominal;
+  s.plant = plant;
+  const double ratio = nominal.contact.dynamic_friction > 0.0
+                           ? nominal.contact.static_friction / nominal.contact.dynamic_friction
+                           : 1.0;
+  s.contact.dynamic_friction = plant.friction;
+  s.contact.static_friction = plant.friction * ratio;
+  double near_face = kInf;  // nearest obstacle's near face after the shift
+  for (Box& b : s.terrain.boxes) {
+    if (!b.obstacle) continue;
+    b.min.x() += plant.wall_position_error_m;
+    b.max.x() += plant.wall_position_error_m;
+    near_face = std::min(near_face, b.min.x());
+  }
+  if (plant.ground_height_m != 0.0) {
+    if (!s.terrain.has_ground || s.terrain.slope_rad != 0.0)
+      throw std::invalid_argument(
+          "plant settings: ground_height_m needs flat ground in the scenario");
+    const double h = plant.ground_height_m;
+    const double x_end = std::isfinite(near_face) ? near_face : kFar;  // take-off side ends
+    if (h > 0.0) {
+      // The take-off side raised on a box (terrain, not an obstacle).
+      s.terrain.boxes.push_back({{-kFar, -kFar, -kBuried}, {x_end, kFar, h}, false});
+    } else {
+      // The take-off side sunk: no ground plane; boxes carry both sides.
+      s.terrain.has_ground = false;
+      s.terrain.boxes.push_back({{-kFar, -kFar, h - kBuried}, {x_end, kFar, h}, false});
+      if (x_end < kFar)
+        s.terrain.boxes.push_back({{x_end, -kFar, -kBuried}, {kFar, kFar, 0.0}, false});
+    }
+  }
+  s.validate();
+  return s;
 }
 
 std::string_view toString(WheelShape shape) {

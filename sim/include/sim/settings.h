@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include "sim/plant.h"
+
 namespace wj::sim {
 
 /// Shape that stands in for the wheel (a cylinder with rounded tread) in ground contact.
@@ -114,10 +116,20 @@ struct SimSettings {
   IntegratorSettings integrator;
   NoiseSettings noise;
   Terrain terrain = Terrain::flat();
+  /// How the simulated robot differs from the model: SimRobot applies the masses, drive
+  /// envelopes, motor latency and IMU biases; applyPlant() also moves the terrain and sets the
+  /// contact friction. Not part of the YAML of loadSimSettings() (a plant file is separate).
+  PlantSettings plant;
 
   /// Throws std::invalid_argument naming the field when a value is out of range.
   void validate() const;
 };
+
+/// `nominal` with `plant` applied: contact friction (mu_d = plant.friction, mu_s keeping the
+/// ratio mu_s / mu_d), obstacles moved by the wall position error, the take-off ground raised
+/// by ground_height_m, and the plant stored for SimRobot. Throws std::invalid_argument on a
+/// bad plant.
+SimSettings applyPlant(const SimSettings& nominal, const PlantSettings& plant);
 
 /// "sphere", "ellipsoid".
 std::string_view toString(WheelShape shape);

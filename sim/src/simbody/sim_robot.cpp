@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "../contact_law.h"
+#include "sim/plant.h"
 
 namespace wj::sim {
 
@@ -291,8 +292,21 @@ struct SimRobot::Impl {
   std::vector<int> surface_leg;
   std::vector<bool> surface_is_robot;
 
-  model::JointCommands commands{};
+  model::JointCommands commands{};  // the commands the drives act on now
   std::array<double, model::kNumJoints> held_torque{};
+  // Drive envelopes of the plant (the model's, scaled by PlantSettings).
+  std::array<model::ActuatorEnvelope, model::kNumJoints> envelopes{};
+  // Motor latency: commands written but not yet acting, oldest first (a ring sized at
+  // construction), each with the time it starts acting.
+  struct PendingCommand {
+    double t_apply = 0.0;
+    model::JointCommands commands{};
+  };
+  std::vector<PendingCommand> pending;
+  std::size_t pending_head = 0, pending_count = 0;
+  // Integrates to time t with the commands in force, switching to each pending command at
+  // its time (a step ends there).
+  void integrateTo(double t);
 
   SimTK::State default_state;
   std::unique_ptr<SimTK::Integrator> integ;
@@ -442,16 +456,21 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
   // about z of its frames, so both frames are turned to put z on the URDF axis.
   const auto& links = model.links();
   mobods.resize(links.size());
-  mobods[0] = SimTK::MobilizedBody::Free(matter.updGround(), SimTK::Transform(),
-                                         makeBody(links[0].inertia), SimTK::Transform());
+  // The plant's masses (PlantSettings): every link scaled, the payload on the base.
+  const PlantSettings& plant = settings.plant;
+  mobods[0] = SimTK::MobilizedBody::Free(
+      matter.updGround(), SimTK::Transform(),
+      makeBody(addPointMass(scaleInertia(links[0].inertia, plant.link_mass_scale), plant.payload)),
+      SimTK::Transform());
   // Links were appended parent-before-child by the loader.
   for (std::size_t li = 1; li < links.size(); ++li) {
     const model::JointSpec& j = model.joints()[links[li].parent_joint];
     const SimTK::Rotation R_JA(SimTK::UnitVec3(toVec3(j.axis)), SimTK::ZAxis);
     const SimTK::Transform X_PF = toTransform(j.X_PJ) * SimTK::Transform(R_JA);
     const SimTK::Transform X_BM(R_JA);
-    const SimTK::MobilizedBody::Pin pin(mobods[j.parent_link], X_PF, makeBody(links[li].inertia),
-                                        X_BM);
+    const SimTK::MobilizedBody::Pin pin(
+        mobods[j.parent_link], X_PF,
+        makeBody(scaleInertia(links[li].inertia, plant.link_mass_scale)), X_BM);
     mobods[li] = pin;
     pins[model::jointIndex(j.leg, j.kind)] = pin;
   }
@@ -530,6 +549,16 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
   if (terrain.has_ground) SimTK::Force::Custom(forces, new GroundElement(*this));
   if (!terrain.boxes.empty()) SimTK::Force::Custom(forces, new BoxElement(*this));
 
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    envelopes[i] =
+        scaleEnvelope(model.joints()[i].actuator, plant.torque_scale, plant.corner_speed_scale);
+    if (envelopes[i].corner_speed_rad_s >= envelopes[i].no_load_speed_rad_s)
+      throw std::invalid_argument("plant settings: corner_speed_scale puts the corner speed of " +
+                                  model.joints()[i].name + " beyond its no-load speed");
+  }
+  pending.resize(
+      static_cast<std::size_t>(std::ceil(plant.motor_latency_s / settings.control_period_s)) + 2);
+
   default_state = system.realizeTopology();
   system.realizeModel(default_state);
   for (int i = 0; i < model::kNumJoints; ++i) {
@@ -597,7 +626,7 @@ double SimRobot::Impl::driveTorque(int i, double q, double qd, double* demand) c
   const model::JointCommand& c = commands[i];
   const double tau = c.kp * (c.q_des - q) + c.kd * (c.qd_des - qd) + c.tau_ff;
   if (demand) *demand = tau;
-  return model.joints()[i].actuator.saturate(tau, qd);
+  return envelopes[i].saturate(tau, qd);
 }
 
 void SimRobot::Impl::calcMassCenter(const SimTK::State& s, SimTK::Vec3& p_GC,
@@ -740,6 +769,9 @@ void SimRobot::read(model::SensorData& out) {
           ? (base.getBodyOriginVelocity(s) - m.previous_v_GB) / m.settings.control_period_s
           : m.reset_a_GB;
   out.imu.accel_B = toEigen(~R_GB * (a_GB - gravity));
+  // The plant's IMU biases (constant, also without noise).
+  out.imu.omega_B += m.settings.plant.imu_gyro_bias_rad_s;
+  out.imu.accel_B += m.settings.plant.imu_accel_bias_m_s2;
 
   const NoiseSettings& n = m.settings.noise;
   if (!n.enabled) return;
@@ -763,8 +795,64 @@ void SimRobot::read(model::SensorData& out) {
 }
 
 void SimRobot::write(const model::JointCommands& commands) {
-  impl_->commands = commands;
-  if (impl_->settings.actuator_update == ActuatorUpdate::Continuous) impl_->invalidateForces();
+  Impl& m = *impl_;
+  const double latency = m.settings.plant.motor_latency_s;
+  if (latency > 0.0) {
+    // Acts `latency` from now; a full ring (commands written faster than the periods pass)
+    // drops the oldest.
+    if (m.pending_count == m.pending.size()) {
+      m.pending_head = (m.pending_head + 1) % m.pending.size();
+      --m.pending_count;
+    }
+    Impl::PendingCommand& p = m.pending[(m.pending_head + m.pending_count) % m.pending.size()];
+    p.t_apply = m.state().getTime() + latency;
+    p.commands = commands;
+    ++m.pending_count;
+    return;
+  }
+  m.commands = commands;
+  if (m.settings.actuator_update == ActuatorUpdate::Continuous) m.invalidateForces();
+}
+
+void SimRobot::Impl::integrateTo(double t) {
+  const auto stepTo = [&](double t_end) {
+    // stepTo() may return before t_end: right after initialize() it returns at once with
+    // StartOfSimulation, without advancing (the first period after reset() used to be lost and
+    // the next one integrated twice). Step until the interval is really covered.
+    for (int attempt = 0; integ->getTime() < t_end - 1e-12; ++attempt) {
+      if (attempt == 100)
+        throw std::runtime_error("the integrator did not reach the end of the period");
+      integ->stepTo(t_end);
+    }
+  };
+  const auto hold = [&] {
+    if (settings.actuator_update != ActuatorUpdate::ZeroOrderHold) return;
+    const SimTK::State& s = state();
+    const SimTK::Vector& q = matter.getQ(s);
+    const SimTK::Vector& u = matter.getU(s);
+    for (int i = 0; i < model::kNumJoints; ++i)
+      held_torque[i] = driveTorque(i, jointQ(q, i), jointU(u, i), nullptr);
+  };
+  for (;;) {
+    // Commands whose time has come act from now on.
+    bool changed = false;
+    while (pending_count > 0 && pending[pending_head].t_apply <= integ->getTime() + 1e-9) {
+      commands = pending[pending_head].commands;
+      pending_head = (pending_head + 1) % pending.size();
+      --pending_count;
+      changed = true;
+    }
+    if (changed) {
+      hold();
+      invalidateForces();
+    }
+    if (pending_count > 0 && pending[pending_head].t_apply < t - 1e-9) {
+      stepTo(pending[pending_head].t_apply);
+    } else {
+      stepTo(t);
+      return;
+    }
+  }
 }
 
 void SimRobot::advance() {
@@ -783,14 +871,7 @@ void SimRobot::advance() {
   ++m.step_count;
   const double t_next = static_cast<double>(m.step_count) * m.settings.control_period_s;
   try {
-    // stepTo() may return before t_next: right after initialize() it returns at once with
-    // StartOfSimulation, without advancing (the first period after reset() used to be lost and
-    // the next one integrated twice). Step until the period is really covered.
-    for (int attempt = 0; m.integ->getTime() < t_next - 1e-12; ++attempt) {
-      if (attempt == 100)
-        throw std::runtime_error("the integrator did not reach the end of the period");
-      m.integ->stepTo(t_next);
-    }
+    m.integrateTo(t_next);
   } catch (const std::exception& e) {
     throw std::runtime_error("SimRobot: integration failed at t = " +
                              std::to_string(m.state().getTime()) + " s: " + e.what());
@@ -810,6 +891,8 @@ void SimRobot::reset(const RobotPlacement& placement) {
   }
   m.commands = {};
   m.held_torque = {};
+  m.pending_head = 0;
+  m.pending_count = 0;
   m.step_count = 0;
   m.rng.seed(m.settings.noise.seed);
   m.makeIntegrator();
