@@ -152,18 +152,37 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       return;
     }
     case JumpPhase::Landing: {
+      // Wheels: from the take-off ground speed towards the hand-over speed (0 without a
+      // hand-over) at landing_wheel_decel_m_s2.
       const double r = model_.wheelRadius();
-      const double v0 = std::abs(wheel_speed_) * r;
-      const double v =
-          std::max(0.0, v0 - settings_.landing_wheel_decel_m_s2 * (t - landing_start_));
-      const double wheel_speed = v0 > 0.0 ? wheel_speed_ * v / v0 : 0.0;
+      const double since = t - landing_start_;
+      const double v0 = wheel_speed_ * r;
+      const double v_end = handover_ ? handover_->speed_m_s : 0.0;
+      const double dv = settings_.landing_wheel_decel_m_s2 * since;
+      const double v = v0 > v_end ? std::max(v_end, v0 - dv) : std::min(v_end, v0 + dv);
+      // Legs: q_landing, blended to the hand-over posture over the rest of the landing.
+      double s = 0.0, sd = 0.0;
+      if (handover_) {
+        const double T = settings_.landing_duration_s - handover_->blend_start_s;
+        const double u =
+            T > 0.0 ? std::clamp((since - handover_->blend_start_s) / T, 0.0, 1.0) : 1.0;
+        s = u * u * u * (10.0 + u * (6.0 * u - 15.0));  // quintic smoothstep
+        sd = T > 0.0 && u > 0.0 && u < 1.0 ? 30.0 * u * u * (1.0 - u) * (1.0 - u) / T : 0.0;
+      }
       for (int j = 0; j < model::kNumJoints; ++j) {
         model::JointCommand& c = out[j];
-        if (model::isWheel(j))
-          c = {0.0, wheel_speed, 0.0, settings_.wheel_kd, 0.0};
-        else
+        if (model::isWheel(j)) {
+          c = {0.0, v / r, 0.0, settings_.wheel_kd, 0.0};
+        } else if (handover_) {
+          const double dq = handover_->q[j] - plan_.q_landing[j];
+          const double ff =
+              landing_feedforward_[j] + s * (handover_->tau_gravity[j] - landing_feedforward_[j]);
+          c = {plan_.q_landing[j] + s * dq, sd * dq, settings_.landing_kp, settings_.landing_kd,
+               settings_.landing_gravity_feedforward ? ff : 0.0};
+        } else {
           c = {plan_.q_landing[j], 0.0, settings_.landing_kp, settings_.landing_kd,
                landing_feedforward_[j]};
+        }
       }
       return;
     }

@@ -12,6 +12,7 @@
 
 #include "nmpc_sim/closed_loop.h"
 #include "nmpc_test_util.h"
+#include "sim/reference_plans.h"
 
 namespace wj::nmpc {
 namespace {
@@ -158,6 +159,51 @@ INSTANTIATE_TEST_SUITE_P(Speeds, TrotOverStep, ::testing::Values(0.4, 0.5, 0.8),
                                       static_cast<int>(std::lround(10 * param_info.param))) +
                                   "_dm_per_s";
                          });
+
+}  // namespace
+}  // namespace wj::nmpc
+
+namespace wj::nmpc {
+namespace {
+
+// Hand-over after a landing (docs/robot-client.md, "After the landing"): the NMPC of the
+// forward scenario (model frozen at the 0.30 m crouch) takes over a robot rolling at 0.75 m/s
+// whose hip abductions are splayed as after a landing (+-0.016..0.022 rad). From its own
+// posture it brakes to a stop; from the 6.6 cm taller landing posture its roll diverges
+// within 0.1 s (the planned forces grow sideways and go negative on one side), the flip
+// that the robot client's landing used to end in.
+sim_loop::LoopResult takeOverAfterLanding(const model::RobotModel& robot, double base_height_m) {
+  LocomotionSettings settings;
+  settings.model.nominal_base_height_m = 0.30;
+  settings.reference.base_height_m = 0.30;
+  LocomotionController c(robot, settings);
+  SpeedCommand command;
+  command.v_start_m_s = 0.75;
+  command.acceleration_m_s2 = 2.5;
+  c.setSpeedCommand(command);
+  const sim::SimSettings sim;
+  sim::InitialState init;
+  init.q = sim::standingPosture(robot, base_height_m);
+  const double splay[model::kNumLegs] = {0.016, -0.015, -0.022, 0.021};  // LF, RF, LH, RH
+  for (const model::Leg leg : model::kLegs) {
+    init.q[model::jointIndex(leg, model::JointKind::HAA)] = splay[static_cast<int>(leg)];
+    init.qd[model::jointIndex(leg, model::JointKind::Wheel)] = 0.75 / robot.wheelRadius();
+  }
+  init.com.z = sim::comHeight(robot, base_height_m) - 1e-3;
+  init.com.vx = 0.75;
+  return sim_loop::runClosedLoopFrom(robot, c, sim, sim::calcPlacement(robot, init, sim.terrain),
+                                     1.0, kMpcPeriod, 0.0, [](double, LocomotionController&) {});
+}
+
+TEST_F(ClosedLoop, TakesOverAfterALandingInItsOwnPostureNotInATallerOne) {
+  const LoopResult own = takeOverAfterLanding(robot_, 0.30);
+  report("take over, own posture", own);
+  EXPECT_FALSE(own.fell) << "at " << own.fell_at;
+  EXPECT_LT(std::abs(own.samples.back().speed), 0.05);
+  const LoopResult taller = takeOverAfterLanding(robot_, 0.366);
+  report("take over, landing posture", taller);
+  EXPECT_TRUE(taller.fell);
+}
 
 }  // namespace
 }  // namespace wj::nmpc

@@ -42,6 +42,8 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.target_pitch_change_rad, -7.0, 7.0, p + "target.pitch_change_rad");
   inRange(s.plan_timeout_s, 0.05, 60.0, p + "plan_timeout_s");
   inRange(s.duration_s, 1.0, 600.0, p + "duration_s");
+  inRange(s.roll_on_speed_m_s, 0.0, 5.0, p + "after_landing.speed_m_s");
+  inRange(s.roll_on_s, 0.0, 600.0, p + "after_landing.roll_s");
   if (s.has_wall && s.run_up_speed_m_s > 0.0) {
     // The run-up must fit before the decision point.
     const double run_up = s.run_up_speed_m_s * s.run_up_speed_m_s / (2.0 * s.acceleration_m_s2);
@@ -91,6 +93,11 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   target.finish();
   s.plan_timeout_s = m.number("plan_timeout_s");
   s.duration_s = m.number("duration_s");
+  StrictYamlMap after = m.map("after_landing");
+  s.after_landing = after.choice("mode", std::array{AfterLanding::Stop, AfterLanding::RollOn});
+  s.roll_on_speed_m_s = after.number("speed_m_s");
+  s.roll_on_s = after.number("roll_s");
+  after.finish();
   m.finish();
   return s;
 }
@@ -117,6 +124,16 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
 }
 
 }  // namespace
+
+std::string_view toString(AfterLanding after) {
+  switch (after) {
+    case AfterLanding::Stop:
+      return "stop";
+    case AfterLanding::RollOn:
+      return "roll_on";
+  }
+  return "?";
+}
 
 const ScenarioSettings& ClientSettings::scenario(std::string_view name) const {
   std::string names;

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "sim/statics.h"
+
 namespace wj::robot_client {
 
 namespace {
@@ -35,6 +37,16 @@ ControlLoop::ControlLoop(const model::RobotModel& robot, const ClientSettings& s
       static_cast<int>(std::lround(settings.contact.settle_s / backend.controlPeriod()));
   mpc_every_ = std::max(
       1, static_cast<int>(std::lround(settings.loop.mpc_period_s / backend.controlPeriod())));
+  // The landing ends where the NMPC takes over: in the posture its centroidal model is frozen
+  // at (docs/robot-client.md, "After the landing"), at the speed it is to go on with.
+  const nmpc::CentroidalModel& model = controller.model();
+  for (int leg = 0; leg < model::kNumLegs; ++leg)
+    for (int j = 0; j < nmpc::kLegDofs; ++j)
+      handover_.q[nmpc::robotJointIndex(leg, j)] = model.nominalJoints()[nmpc::kLegDofs * leg + j];
+  handover_.tau_gravity =
+      sim::calcStandingStatics(robot, handover_.q, model.settings().gravity_m_s2).tau;
+  handover_.speed_m_s =
+      scenario.after_landing == AfterLanding::RollOn ? scenario.roll_on_speed_m_s : 0.0;
 }
 
 void ControlLoop::initialise(const Eigen::Vector3d& p_WB) {
@@ -167,18 +179,8 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
     if (ex != nullptr) ex->update(t_ - takeoff_t_, sensors_, any_contact, commands_);
     return;
   }
-  // After a jump the robot brakes and stands in the landing posture (the executor's landing
-  // phase: impedance posture, wheel speed ramping to zero); the NMPC stays paused. Handing
-  // back to the NMPC from the landing posture is not reliable yet (docs/robot-client.md).
-  if (fsm_.jumped()) {
-    sim::PlanExecutor* ex = executor();
-    if (ex != nullptr) {
-      ex->update(t_ - takeoff_t_, sensors_, true, commands_);
-      return;
-    }
-  }
-  // NMPC modes: the MPC thread gets the state every MPC period; the loop evaluates the
-  // latest policy every period.
+  // NMPC modes (also after a landing: the landing phase ended in the NMPC's own posture): the MPC
+  // thread gets the state every MPC period; the loop evaluates the latest policy every period.
   const bool resuming = !mpc_input_.active;  // the first NMPC period: post at once
   mpc_input_.active = true;
   if (resuming || k_ - last_mpc_k_ >= static_cast<std::uint64_t>(mpc_every_)) {
@@ -261,9 +263,11 @@ void ControlLoop::step() {
   if (out.request_plan) pending_request_ = true;
   if (pending_request_) postPlanRequest();
   if (out.brake) setSpeedCommand(0.0, settings_.safety.brake_decel_m_s2);
+  if (out.roll_on) setSpeedCommand(scenario_.roll_on_speed_m_s, scenario_.acceleration_m_s2);
   if (out.start_takeoff) {
     takeoff_t_ = t_;
     takeoff_speed_ = speed_;
+    if (sim::PlanExecutor* ex = executor(); ex != nullptr) ex->setHandover(handover_);
     mpc_input_.active = false;
     mpc_.post(mpc_input_);  // pauses the NMPC for the jump
   }

@@ -42,6 +42,10 @@ std::string_view toString(Reason reason) {
       return "touchdown";
     case Reason::Landed:
       return "landing over";
+    case Reason::RollOn:
+      return "landing over, rolling on";
+    case Reason::RolledOn:
+      return "rolled on";
     case Reason::NoPlanByDecisionPoint:
       return "no plan by the decision point";
     case Reason::PlanInfeasible:
@@ -117,7 +121,13 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
       }
       break;
     case Mode::Roll:
-      if (scenario_.has_wall && in.com_x >= decisionComX()) {
+      if (jumped_) {
+        // Rolling on after the landing, then a stop.
+        if (in.t >= mode_since_ + scenario_.roll_on_s) {
+          out.brake = true;
+          enter(Mode::Brake, Reason::RolledOn, in);
+        }
+      } else if (scenario_.has_wall && in.com_x >= decisionComX()) {
         abort(Reason::NoPlanByDecisionPoint);
       } else if (in.t >= mode_since_ + scenario_.run_up_speed_m_s / scenario_.acceleration_m_s2 &&
                  std::abs(in.speed - scenario_.run_up_speed_m_s) < scenario_.speed_tolerance_m_s) {
@@ -151,8 +161,14 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
       break;
     case Mode::Landing:
       if (in.executor_finished) {
-        out.brake = true;
-        enter(Mode::Brake, Reason::Landed, in);
+        if (scenario_.after_landing == AfterLanding::RollOn) {
+          out.roll_on = true;
+          rolled_on_ = true;
+          enter(Mode::Roll, Reason::RollOn, in);
+        } else {
+          out.brake = true;
+          enter(Mode::Brake, Reason::Landed, in);
+        }
       }
       break;
     case Mode::Brake:

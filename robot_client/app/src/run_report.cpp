@@ -102,6 +102,7 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
   }
   if (m == Mode::Landing && std::isnan(truth_.touchdown_dx))
     truth_.touchdown_dx = gt.p_WC.x() - truth_.takeoff_com_x;
+  if (m == Mode::Roll && loop.stateMachine().rolledOn()) truth_.roll_on_speed = gt.v_WB.x();
   truth_.min_clearance = std::min(truth_.min_clearance, gt.obstacle_clearance_m);
   truth_.body_hit_ground = truth_.body_hit_ground || gt.base_in_contact || gt.legs_in_contact;
   truth_.final_x = p.x();
@@ -182,15 +183,22 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
     const bool stopped = loop.mode() == Mode::Stand;
     const bool cleared =
         !scenario_.has_wall || (truth_.min_clearance > 0.0 && truth_.final_x > scenario_.wall_x_m);
+    // Rolled on at the commanded speed after the landing (within 5 %), when asked to.
+    const bool roll_on = scenario_.after_landing == AfterLanding::RollOn;
+    const bool rolled_on =
+        !roll_on ||
+        (fsm.rolledOn() && std::abs(truth_.roll_on_speed - scenario_.roll_on_speed_m_s) <=
+                               0.05 * scenario_.roll_on_speed_m_s + 0.02);
     if (!truth_.available) {
-      s.success = stopped;
+      s.success = stopped && (!roll_on || fsm.rolledOn());
       v << (stopped ? "jumped and stopped" : "jumped, not stopped");
     } else {
-      s.success = upright && stopped && cleared && !truth_.body_hit_ground;
+      s.success = upright && stopped && cleared && rolled_on && !truth_.body_hit_ground;
       v << (scenario_.has_wall ? (cleared ? "cleared the wall" : "DID NOT CLEAR the wall")
                                : "jumped")
         << (upright ? ", landed upright" : ", NOT upright")
         << (truth_.body_hit_ground ? ", body touched the ground" : "")
+        << (roll_on ? (rolled_on ? ", rolled on" : ", DID NOT ROLL ON") : "")
         << (stopped ? ", stopped" : ", not stopped");
     }
   }
@@ -229,6 +237,7 @@ nlohmann::json RunSummary::toJson() const {
                       {"liftoff_vz_m_s", num(truth.liftoff_vz)},
                       {"liftoff_pitch_rate_rad_s", num(truth.liftoff_pitch_rate)},
                       {"body_touched_ground", truth.body_hit_ground},
+                      {"roll_on_speed_m_s", num(truth.roll_on_speed)},
                       {"final_x_m", truth.final_x},
                       {"final_pitch_rad", truth.final_pitch},
                       {"final_roll_rad", truth.final_roll},

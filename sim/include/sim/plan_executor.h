@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -53,6 +54,19 @@ struct ExecutorSettings {
   void validate() const;
 };
 
+/// Where the landing phase leaves the robot for the controller that takes over after it (the
+/// locomotion NMPC): its legs blended from q_landing to `q` (the posture that controller's
+/// model assumes: a centroidal model frozen at one posture is unstable in roll when handed a
+/// robot standing 6 cm taller, docs/robot-client.md), its wheels at `speed_m_s`.
+struct LandingHandover {
+  JointVector q = JointVector::Zero();  ///< leg joints at the end of the landing (wheels unused)
+  /// Standing statics torques of `q` (calcStandingStatics(...).tau), the gravity feedforward
+  /// at the end of the blend; computed by the caller outside the real-time loop.
+  JointVector tau_gravity = JointVector::Zero();
+  double speed_m_s = 0.0;       ///< ground speed the wheels ramp to (0: brake to a stop) [m/s]
+  double blend_start_s = 0.25;  ///< the blend starts this long after touchdown (impact over) [s]
+};
+
 /// What is wrong with a plan's shape (sizes, times, sample period), or "" when it can be run.
 std::string checkPlan(const planner::JumpPlan& plan);
 
@@ -75,6 +89,10 @@ class PlanExecutor {
   JumpPhase phase() const { return phase_; }
   /// True once all wheels have been off the ground for airborne_debounce_s.
   bool wasAirborne() const { return airborne_; }
+  /// Sets where the landing phase ends (see LandingHandover); without it the legs hold
+  /// q_landing and the wheels brake to a stop. Real-time safe (a copy); call before the
+  /// landing phase starts.
+  void setHandover(const LandingHandover& handover) { handover_ = handover; }
   /// Start of the landing phase [s] (infinity before).
   double landingStart() const { return landing_start_; }
   /// True when the landing phase has lasted landing_duration_s.
@@ -98,6 +116,7 @@ class PlanExecutor {
   double last_contact_t_ = 0.0;
   double flight_start_ = 0.0;
   double landing_start_ = std::numeric_limits<double>::infinity();
+  std::optional<LandingHandover> handover_;
 };
 
 }  // namespace wj::sim

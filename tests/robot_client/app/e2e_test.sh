@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # End-to-end tests of robot_client against a real planner_server on loopback (ctest "app.e2e.*").
 #   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort
-# forward: run-up, plan, jump over the 0.25 m wall through emulated CAN frames, land, stop.
+# forward: run-up, plan, jump over the 0.25 m wall through emulated CAN frames, land, roll on
+# at the run-up speed, stop.
 # vertical: the standing jump. abort: the service is unreachable; the robot must not jump and
 # must stop before the wall. The test configuration gives the planner a longer deadline and the
 # wall more run-up room than the shipped one, because CI machines are slower and shared.
@@ -18,7 +19,7 @@ cleanup() {
   rm -rf "$WORK"
 }
 trap cleanup EXIT
-PORT=$(( 52000 + RANDOM % 2000 ))
+PORT=${WJ_E2E_PORT:-$(( 52000 + RANDOM % 2000 ))}
 sed -e "s|^listen: .*|listen: \"127.0.0.1:${PORT}\"|" -e "s|^  path: .*|  path: \"\"|" \
   "$SRC/config/planner_server.yaml" > "$WORK/server.yaml"
 sed -e "s|^  deadline_s: .*|  deadline_s: 6.0|" \
@@ -70,6 +71,12 @@ else:
     if case == "forward":
         check(sim["min_wall_clearance_m"] > 0.0, "hit the wall")
         check(d["can"].find("dropped 0") >= 0 and d["can"].find("motor fault no") >= 0, d["can"])
+        # After the landing the NMPC takes over and rolls on at the run-up speed, then stops.
+        modes = [(t["from"], t["to"]) for t in d["transitions"]]
+        check(("LANDING", "ROLL") in modes, f"did not roll on after the landing: {modes}")
+        check(abs(sim["roll_on_speed_m_s"] - 3.0) < 0.17,
+              f"rolled on at {sim['roll_on_speed_m_s']} m/s, not 3 m/s")
+        check(d["final_mode"] == "STAND", d["final_mode"])
     for kind, t in d["max_torque"].items():
         check(t["max_nm"] <= t["limit_nm"] * 1.02, f"{kind} torque {t['max_nm']} beyond {t['limit_nm']}")
 print("OK", case)

@@ -30,6 +30,9 @@ TEST(ClientSettings, ShippedConfigParsesAndValidates) {
   EXPECT_DOUBLE_EQ(s.scenario("forward").wall_height_m, 0.25);
   EXPECT_EQ(s.scenario("vertical").event, planner::TargetEvent::Apex);
   EXPECT_EQ(s.scenarios.front().name, "forward");
+  EXPECT_EQ(s.scenario("forward").after_landing, AfterLanding::RollOn);
+  EXPECT_DOUBLE_EQ(s.scenario("forward").roll_on_speed_m_s, 3.0);
+  EXPECT_EQ(s.scenario("vertical").after_landing, AfterLanding::Stop);
   try {
     (void)s.scenario("moonwalk");
     FAIL() << "accepted an unknown scenario";
@@ -90,6 +93,19 @@ TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("scenarios.hop.stand_s"), std::string::npos) << e.what();
   }
+}
+
+TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
+  const std::string text = replace(shippedConfig(), "mode: roll_on", "mode: hover");
+  try {
+    (void)parseClientSettings(text, "x.yaml");
+    FAIL() << "accepted an unknown after-landing mode";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("'hover' is not one of stop, roll_on"), std::string::npos)
+        << e.what();
+  }
+  const std::string fast = replace(shippedConfig(), "speed_m_s: 3.0\n", "speed_m_s: 9.0\n");
+  EXPECT_THROW((void)parseClientSettings(fast, "x.yaml"), std::invalid_argument);
 }
 
 TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {

@@ -90,6 +90,54 @@ TEST(JumpStateMachine, ForwardJumpGoesThroughEveryPhaseInOrder) {
   for (int i = 0; i < 7; ++i) EXPECT_EQ(d.fsm.journal(i).to, expected[i]) << i;
 }
 
+TEST(JumpStateMachine, AfterTheLandingItRollsOnAtTheCommandedSpeedThenStops) {
+  ScenarioSettings sc = forward();
+  sc.after_landing = AfterLanding::RollOn;
+  sc.roll_on_speed_m_s = 2.5;
+  sc.roll_on_s = 1.5;
+  Drive d(sc);
+  int roll_ons = 0;
+  d.in.speed = 3.0;
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
+  d.in.plan = PlanStatus::Feasible;
+  ASSERT_TRUE(d.until(Mode::Takeoff, 10.0));
+  d.in.executor_in_flight = true;
+  d.tick();
+  d.in.executor_in_flight = false;
+  d.in.executor_landing = true;
+  d.tick();
+  ASSERT_EQ(d.fsm.mode(), Mode::Landing);
+  d.in.executor_finished = true;
+  const FsmOutput out = d.tick();
+  roll_ons += out.roll_on;
+  EXPECT_EQ(out.mode, Mode::Roll);
+  EXPECT_TRUE(out.roll_on);
+  EXPECT_FALSE(out.brake);
+  EXPECT_TRUE(d.fsm.rolledOn());
+  const double since = d.in.t;
+  // Rolling on past the wall and the decision point: no new request, no abort, no brake.
+  d.in.speed = 2.5;
+  while (d.in.t < since + 1.5 - 0.02) {
+    const FsmOutput o = d.tick();
+    roll_ons += o.roll_on;
+    ASSERT_EQ(o.mode, Mode::Roll) << d.in.t;
+  }
+  EXPECT_EQ(d.requests, 1);
+  EXPECT_EQ(d.brakes, 0);
+  ASSERT_TRUE(d.until(Mode::Brake, since + 1.6));
+  EXPECT_NEAR(d.in.t, since + 1.5, 0.011);
+  EXPECT_EQ(d.brakes, 1);
+  EXPECT_EQ(roll_ons, 1);
+  EXPECT_EQ(d.fsm.abortReason(), Reason::Start);
+  d.in.speed = 0.0;
+  EXPECT_EQ(d.tick().mode, Mode::Stand);
+  const int n = d.fsm.journalCount();
+  ASSERT_GE(n, 4);
+  EXPECT_EQ(d.fsm.journal(n - 3).to, Mode::Roll);
+  EXPECT_EQ(d.fsm.journal(n - 3).reason, Reason::RollOn);
+  EXPECT_EQ(d.fsm.journal(n - 2).reason, Reason::RolledOn);
+}
+
 TEST(JumpStateMachine, NoPlanByTheDecisionPointBrakesBeforeTheWall) {
   Drive d(forward());
   d.until(Mode::Roll, 1.0);

@@ -70,6 +70,14 @@ struct PlannerConnection {
   std::string tls_server_name;   ///< expected name in the service's certificate ("" = host)
 };
 
+/// What the robot does once a jump's landing is over.
+enum class AfterLanding : std::uint8_t {
+  Stop,    ///< the NMPC takes over and brakes to a stop
+  RollOn,  ///< the NMPC takes over and rolls on at roll_on_speed_m_s, then stops
+};
+/// "stop", "roll_on".
+std::string_view toString(AfterLanding after);
+
 /// What a scenario does. Forward: roll up to `run_up_speed_m_s`, request a plan, jump over the
 /// wall at `wall_x_m` (world), land and stop. Vertical: stand, request, jump in place.
 struct ScenarioSettings {
@@ -97,7 +105,12 @@ struct ScenarioSettings {
   planner::TargetEvent event = planner::TargetEvent::Touchdown;
   planner::TakeoffMode mode = planner::TakeoffMode::Simultaneous;
   double plan_timeout_s = 3.0;  ///< standing jumps: no plan by then -> no jump [s]
-  double duration_s = 12.0;     ///< end of the run [s]
+  /// After the landing (YAML `after_landing: {mode, speed_m_s, roll_s}`): the executor's
+  /// landing phase ends in the NMPC's posture at this speed and the NMPC takes over.
+  AfterLanding after_landing = AfterLanding::Stop;
+  double roll_on_speed_m_s = 3.0;  ///< roll_on: speed along the heading [m/s]
+  double roll_on_s = 2.0;          ///< roll_on: how long it rolls on before it stops [s]
+  double duration_s = 12.0;        ///< end of the run [s]
 };
 
 /// Everything in config/robot_client.yaml.

@@ -114,7 +114,7 @@ class ControlLoop {
   estimation::StateEstimator estimator_;
   JumpStateMachine fsm_;
   planner::PlanarLeg leg_;
-  std::optional<sim::PlanExecutor> executor_;  // built at take-off from the requester's plan
+  sim::LandingHandover handover_;  // where the landing leaves the robot for the NMPC
 
   model::SensorData sensors_;
   model::JointCommands commands_{};

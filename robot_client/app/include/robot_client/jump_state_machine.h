@@ -2,6 +2,7 @@
 /// @file The jump state machine of the robot client:
 ///
 ///   STAND -> ROLL -> PLAN -> TAKEOFF -> FLIGHT -> LANDING -> BRAKE -> STAND
+///                                                           \-> ROLL (roll on) -> BRAKE -> STAND
 ///                      \-> BRAKE (no plan by the decision point, infeasible plan, planner
 ///                                 unreachable) -> STAND
 ///   any state -> DAMPING (estimator divergence, motor fault, watchdog, attitude limit)
@@ -30,6 +31,8 @@ enum class Reason : std::uint8_t {
   Lifted,             ///< the executor switched to flight
   TouchedDown,        ///< the executor switched to landing
   Landed,             ///< landing phase over
+  RollOn,             ///< landing phase over, rolling on
+  RolledOn,           ///< rolled on after the landing for the scenario's time
   NoPlanByDecisionPoint,
   PlanInfeasible,
   PlannerFailed,  ///< unreachable, deadline exceeded, or an error status
@@ -68,6 +71,7 @@ struct FsmOutput {
   bool start_takeoff = false;  ///< start executing the plan now (once)
   bool brake = false;          ///< set the speed command to a stop now (once)
   bool start_roll = false;     ///< set the run-up speed command now (once)
+  bool roll_on = false;        ///< set the roll-on speed command now (once, after a landing)
 };
 
 /// One journal entry.
@@ -100,6 +104,8 @@ class JumpStateMachine {
   }
   /// Decision point: the plan must be in hand before the CoM passes it [m].
   double decisionComX() const { return takeoff_com_x_ - scenario_.decision_margin_m; }
+  /// Whether the robot landed and rolled on (entered ROLL after LANDING).
+  bool rolledOn() const { return rolled_on_; }
   /// Whether the robot jumped (take-off started) during the run.
   bool jumped() const { return jumped_; }
   /// The abort that ended the jump attempt, or Reason::Start if none.
@@ -118,6 +124,7 @@ class JumpStateMachine {
   double mode_since_ = 0.0;
   double takeoff_com_x_ = 0.0;
   bool jumped_ = false;
+  bool rolled_on_ = false;
   Reason abort_reason_ = Reason::Start;
   std::array<Transition, kJournalSize> journal_{};
   int journal_count_ = 0;

@@ -39,7 +39,9 @@ struct TruthMetrics {
   double liftoff_vx = std::numeric_limits<double>::quiet_NaN();
   double liftoff_vz = std::numeric_limits<double>::quiet_NaN();
   double liftoff_pitch_rate = std::numeric_limits<double>::quiet_NaN();  ///< nose-up [rad/s]
-  bool body_hit_ground = false;      ///< base or a leg link touched the terrain
+  bool body_hit_ground = false;  ///< base or a leg link touched the terrain
+  /// Base speed along x at the end of the roll-on after the landing (NaN without one) [m/s].
+  double roll_on_speed = std::numeric_limits<double>::quiet_NaN();
   double final_x = 0.0;              ///< base x at the end [m]
   double final_front_wheel_x = 0.0;  ///< front wheels' foremost x at the end [m]
   double final_pitch = 0.0, final_roll = 0.0, final_speed = 0.0, final_height = 0.0;

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <utility>
 #include <vector>
 
 #include "nmpc/locomotion_controller.h"
@@ -48,16 +49,18 @@ inline sim::RobotPlacement standingPlacement(const model::RobotModel& robot,
   return sim::calcPlacement(robot, init, terrain);
 }
 
-/// Runs the loop for `duration_s`; `on_tick(t, controller)` may change commands and gaits.
+/// Runs the loop for `duration_s` from `placement`; `on_tick(t, controller)` may change
+/// commands and gaits.
 template <class OnTick>
-LoopResult runClosedLoop(const model::RobotModel& robot, LocomotionController& controller,
-                         const sim::SimSettings& sim_settings, double duration_s,
-                         double mpc_period_s, double travel_slope_rad, OnTick&& on_tick) {
+LoopResult runClosedLoopFrom(const model::RobotModel& robot, LocomotionController& controller,
+                             const sim::SimSettings& sim_settings,
+                             const sim::RobotPlacement& placement, double duration_s,
+                             double mpc_period_s, double travel_slope_rad, OnTick&& on_tick) {
   using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   LoopResult result;
   sim::SimRobot robot_sim(robot, sim_settings);
-  robot_sim.reset(standingPlacement(robot, controller, sim_settings.terrain));
+  robot_sim.reset(placement);
   const int steps = static_cast<int>(std::lround(duration_s / robot_sim.controlPeriod()));
   const int mpc_every =
       std::max(1, static_cast<int>(std::lround(mpc_period_s / robot_sim.controlPeriod())));
@@ -111,6 +114,16 @@ LoopResult runClosedLoop(const model::RobotModel& robot, LocomotionController& c
   }
   result.wall_s = std::chrono::duration<double>(Clock::now() - start).count();
   return result;
+}
+
+/// Runs the loop for `duration_s` from standing still in the controller's nominal posture.
+template <class OnTick>
+LoopResult runClosedLoop(const model::RobotModel& robot, LocomotionController& controller,
+                         const sim::SimSettings& sim_settings, double duration_s,
+                         double mpc_period_s, double travel_slope_rad, OnTick&& on_tick) {
+  return runClosedLoopFrom(robot, controller, sim_settings,
+                           standingPlacement(robot, controller, sim_settings.terrain), duration_s,
+                           mpc_period_s, travel_slope_rad, std::forward<OnTick>(on_tick));
 }
 
 /// Mean of f over the samples with t in [t0, t1].
