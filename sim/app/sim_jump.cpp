@@ -133,6 +133,10 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "planner threads")->check(CLI::Range(1, 64));
   app.add_option("--config", planner_config, "planner settings YAML");
   app.add_option("--sim-config", sim_config, "simulation settings YAML (sim/config layout)");
+  std::string plant_path;
+  app.add_option("--plant", plant_path,
+                 "plant file (YAML, every key optional): the simulated robot differs from the "
+                 "planner's model (docs/sim.md, 'Plant')");
   app.add_option("--csv", csv_path, "write telemetry CSV here");
   app.add_option("--plot", plot_path, "write a PNG figure here (gnuplot)");
   app.add_flag("--json", json_out, "print JSON");
@@ -151,12 +155,21 @@ int main(int argc, char** argv) {
 
     sm::VerifierSettings vs;
     if (!sim_config.empty()) vs.sim = sm::loadSimSettings(sim_config);
+    const sm::PlantSettings plant =
+        plant_path.empty() ? sm::PlantSettings{} : sm::loadPlantSettings(plant_path);
+    vs.sim = sm::applyPlant(vs.sim, plant);
     const sm::Verifier verifier(robot, vs);
     sm::Scenario scenario;
     scenario.name = task;
     if (sc.task.obstacle)
       scenario.terrain = sm::Terrain::wall(sc.task.obstacle->x_min, sc.task.obstacle->x_max,
                                            sc.task.obstacle->height);
+    {
+      // The plant's terrain (wall position error, take-off ground) on the scenario's.
+      sm::SimSettings with_terrain = vs.sim;
+      with_terrain.terrain = scenario.terrain;
+      scenario.terrain = sm::applyPlant(with_terrain, plant).terrain;
+    }
     sm::TelemetryRecorder recorder;
     const sm::VerificationReport v = verifier.verify(r.plan, scenario, recorder.callback());
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";

@@ -49,6 +49,7 @@ struct Options {
   bool json_out = false;
   bool fast = false;
   std::vector<std::string> can_interfaces = {"can0", "can1", "can2", "can3"};
+  std::string plant;  // sim backend: plant file (sim/plant.h); "" = the nominal robot
 };
 
 int run(const Options& opt) {
@@ -63,7 +64,10 @@ int run(const Options& opt) {
 
   std::unique_ptr<rc::Backend> backend;
   if (opt.backend == "sim") {
-    backend = rc::makeSimBackend(robot, controller, scenario, opt.seed, opt.noise, opt.via_can);
+    const wj::sim::PlantSettings plant =
+        opt.plant.empty() ? wj::sim::PlantSettings{} : wj::sim::loadPlantSettings(opt.plant);
+    backend =
+        rc::makeSimBackend(robot, controller, scenario, opt.seed, opt.noise, opt.via_can, plant);
   } else if (opt.backend == "can") {
     backend = rc::makeCanBackend(robot, opt.can_interfaces);
   } else {
@@ -179,6 +183,9 @@ int main(int argc, char** argv) {
                "sim backend: drive the simulated motors through emulated MIT-mode CAN frames");
   app.add_option("--seed", opt.seed, "sim backend: sensor-noise seed");
   app.add_flag("!--no-noise", opt.noise, "sim backend: exact sensors");
+  app.add_option("--plant", opt.plant,
+                 "sim backend: plant file (YAML, every key optional): how the simulated robot "
+                 "differs from the model the controllers use (docs/sim.md, 'Plant')");
   app.add_option("--csv", opt.csv, "telemetry CSV file");
   app.add_option("--plot", opt.plot, "figure (PNG, gnuplot)");
   app.add_flag("--json", opt.json_out, "print the summary as JSON");

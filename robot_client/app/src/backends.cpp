@@ -60,13 +60,18 @@ class SimRangeSensor final : public RangeSensor {
 class SimBackend final : public Backend, public FaultSource {
  public:
   SimBackend(const model::RobotModel& robot, const nmpc::LocomotionController& controller,
-             const ScenarioSettings& scenario, std::uint64_t seed, bool noise, bool via_can) {
-    const sim::SimSettings settings = simSettings(scenario, seed, noise);
+             const ScenarioSettings& scenario, std::uint64_t seed, bool noise, bool via_can,
+             const sim::PlantSettings& plant) {
+    const sim::SimSettings nominal = simSettings(scenario, seed, noise);
+    const sim::SimSettings settings = sim::applyPlant(nominal, plant);
     if (via_can)
       via_can_.emplace(robot, settings, can::loadCanRobotSettings(can::defaultCanConfigFile()));
     else
       direct_.emplace(robot, settings);
     placement_ = nmpc::sim_loop::standingPlacement(robot, controller, settings.terrain);
+    // Where the robot believes it starts: on the nominal ground.
+    start_ =
+        nmpc::sim_loop::standingPlacement(robot, controller, nominal.terrain).X_WB.translation();
     if (via_can_)
       via_can_->reset(placement_);
     else
@@ -79,7 +84,7 @@ class SimBackend final : public Backend, public FaultSource {
   }
   const FaultSource* faults() const override { return via_can_ ? this : nullptr; }
   bool hasFault() const override { return via_can_ && via_can_->canRobot().hasFault(); }
-  Eigen::Vector3d startPosition() const override { return placement_.X_WB.translation(); }
+  Eigen::Vector3d startPosition() const override { return start_; }
   void observe(const ControlLoop& loop, RunRecorder& recorder) override {
     sim().calcGroundTruth(gt_, false);
     recorder.onTruth(gt_, loop);
@@ -108,6 +113,7 @@ class SimBackend final : public Backend, public FaultSource {
   mutable std::optional<sim::SimRobot> direct_;
   mutable std::optional<can::SimViaCan> via_can_;
   sim::RobotPlacement placement_;
+  Eigen::Vector3d start_ = Eigen::Vector3d::Zero();
   sim::GroundTruth gt_;
   std::optional<SimRangeSensor> range_;
 };
@@ -117,8 +123,8 @@ class SimBackend final : public Backend, public FaultSource {
 std::unique_ptr<Backend> makeSimBackend(const model::RobotModel& robot,
                                         const nmpc::LocomotionController& controller,
                                         const ScenarioSettings& scenario, std::uint64_t seed,
-                                        bool noise, bool via_can) {
-  return std::make_unique<SimBackend>(robot, controller, scenario, seed, noise, via_can);
+                                        bool noise, bool via_can, const sim::PlantSettings& plant) {
+  return std::make_unique<SimBackend>(robot, controller, scenario, seed, noise, via_can, plant);
 }
 
 std::unique_ptr<Backend> makeCanBackend(const model::RobotModel& robot,

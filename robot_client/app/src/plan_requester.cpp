@@ -296,7 +296,11 @@ void PlanRequester::handle(const PlanRequestSnapshot& snapshot) {
     const bool verified_ok = r.verification().status() != v1::VERIFICATION_STATUS_FAILED;
     if (!info.feasible || !verified_ok) {
       status = PlanStatus::Infeasible;
-      if (!verified_ok) info.summary += "; verification failed";
+      if (!verified_ok) {
+        info.summary += "; verification failed";
+        for (const std::string& why : r.verification().failure_reasons())
+          info.summary += ": " + why;
+      }
     } else {
       executor_.reset();
       const std::string problem = convert(r, plan_);

@@ -11,6 +11,7 @@
 #include "nmpc/locomotion_controller.h"
 #include "robot_client/client_settings.h"
 #include "robot_model/robot_interface.h"
+#include "sim/plant.h"
 
 namespace wj::sim {
 struct GroundTruth;
@@ -44,11 +45,15 @@ class Backend {
 
 /// The Simbody robot standing in the NMPC's nominal posture at the origin, on flat ground with
 /// the scenario's wall; sensor noise seeded with `seed`. `via_can`: every command and
-/// measurement crosses the in-process CAN bus as MIT-mode frames to motor emulators.
+/// measurement crosses the in-process CAN bus as MIT-mode frames to motor emulators. `plant`
+/// perturbs the simulated robot only (sim/plant.h): the controllers, the estimator's start
+/// and the range sensor keep the nominal world (the range sensor measures to where the
+/// configuration puts the wall).
 std::unique_ptr<Backend> makeSimBackend(const model::RobotModel& robot,
                                         const nmpc::LocomotionController& controller,
                                         const ScenarioSettings& scenario, std::uint64_t seed,
-                                        bool noise, bool via_can);
+                                        bool noise, bool via_can,
+                                        const sim::PlantSettings& plant = {});
 
 /// MIT-mode motors on four SocketCAN interfaces (one per leg, LF RF LH RH). Throws
 /// can::CanError with the reason when SocketCAN is unavailable (no PF_CAN in the kernel, no
