@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "sim/statics.h"
 
@@ -147,6 +148,23 @@ void ControlLoop::postPlanRequest() {
   for (int j = 0; j < model::kNumJoints; ++j) {
     r.q[j] = sensors_.joints[j].q;
     r.qd[j] = sensors_.joints[j].qd;
+  }
+  // The planner's model is sagittal (left and right legs alike, hip abduction at 0): the
+  // request carries each front and hind pair's mean posture. Sent as measured, a robot that
+  // stands asymmetric (a payload off the centre line loads one side) had the service's
+  // verifier place the longer leg's wheel 1-2.6 cm into the ground and refuse the plan
+  // (docs/robot-client.md, "Robustness").
+  for (const auto& [left, right] :
+       {std::pair{model::Leg::LF, model::Leg::RF}, std::pair{model::Leg::LH, model::Leg::RH}}) {
+    for (const model::JointKind kind :
+         {model::JointKind::HAA, model::JointKind::HFE, model::JointKind::KFE}) {
+      const int l = model::jointIndex(left, kind), rr = model::jointIndex(right, kind);
+      const bool haa = kind == model::JointKind::HAA;
+      const double q = haa ? 0.0 : 0.5 * (r.q[l] + r.q[rr]);
+      const double qd = haa ? 0.0 : 0.5 * (r.qd[l] + r.qd[rr]);
+      r.q[l] = r.q[rr] = q;
+      r.qd[l] = r.qd[rr] = qd;
+    }
   }
   r.target_dx_m = scenario_.target_dx_m;
   r.target_height_m = scenario_.target_com_height_m;
