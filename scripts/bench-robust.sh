@@ -142,11 +142,13 @@ for i in range(trials):
            "apex_base_z_m": sim.get("apex_base_z_m"),
            "estimator_position_rms_m": sim.get("estimator_position_rms_m"),
            "plan": (d or {}).get("plan", {}).get("source"),
+           "plan_summary": (d or {}).get("plan", {}).get("summary"),
            "verdict": (d or {}).get("verdict", open(f"{work}/trial_{seed}.log").read()[-300:])}
     rows.append(row)
     if why is not None:
         taxonomy[why] = taxonomy.get(why, 0) + 1
         failures.append({"seed": seed, "failure": why, "verdict": row["verdict"],
+                         "plan_summary": row["plan_summary"],
                          "plant": yaml.safe_load(plant_text), "plant_yaml": plant_text})
 ok = sum(r["success"] for r in rows)
 jumped = [r for r in rows if r["jumped"] and r["clearance_m"] is not None]
