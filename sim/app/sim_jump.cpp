@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   int threads = 2;
   bool json_out = false;
-  app.add_option("--task", task, "forward | forward_hw | vertical | backflip");
+  app.add_option("--task", task, "forward | forward_hw | vertical | backflip | platform");
   app.add_option("--v0", v0, "run-up speed [m/s]");
   app.add_option("--seed", seed, "planner seed");
   app.add_option("--threads", threads, "planner threads")->check(CLI::Range(1, 64));
@@ -152,11 +152,8 @@ int main(int argc, char** argv) {
     sm::VerifierSettings vs;
     if (!sim_config.empty()) vs.sim = sm::loadSimSettings(sim_config);
     const sm::Verifier verifier(robot, vs);
-    sm::Scenario scenario;
+    sm::Scenario scenario = sm::scenarioForTask(sc.task);
     scenario.name = task;
-    if (sc.task.obstacle)
-      scenario.terrain = sm::Terrain::wall(sc.task.obstacle->x_min, sc.task.obstacle->x_max,
-                                           sc.task.obstacle->height);
     sm::TelemetryRecorder recorder;
     const sm::VerificationReport v = verifier.verify(r.plan, scenario, recorder.callback());
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";
