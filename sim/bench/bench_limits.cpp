@@ -135,9 +135,9 @@ json paperGap(const wj::model::RobotModel& robot, const sm::Verifier& verifier, 
   return out;
 }
 
-// The robot model with the knee's upper (extended) limit moved to `kfe_upper_rad`: the URDF
-// text with that one limit changed, loaded from a temporary copy of the models folder.
-wj::model::RobotModel withKneeUpperLimit(double kfe_upper_rad) {
+// The robot model with the knee's range moved to [kfe_lower_rad, kfe_upper_rad]: the URDF text
+// with that one limit changed, loaded from a temporary copy.
+wj::model::RobotModel withKneeRange(double kfe_lower_rad, double kfe_upper_rad) {
   const std::filesystem::path dir = wj::model::RobotModel::defaultModelsDir();
   std::ifstream in(dir / "wheeljump.urdf");
   std::stringstream text;
@@ -145,7 +145,7 @@ wj::model::RobotModel withKneeUpperLimit(double kfe_upper_rad) {
   std::string urdf = text.str();
   const std::string from = "lower=\"-2.7\" upper=\"-0.5\"";
   std::ostringstream to;
-  to << "lower=\"-2.7\" upper=\"" << kfe_upper_rad << "\"";
+  to << "lower=\"" << kfe_lower_rad << "\" upper=\"" << kfe_upper_rad << "\"";
   int replaced = 0;
   for (std::size_t pos = urdf.find(from); pos != std::string::npos; pos = urdf.find(from, pos)) {
     urdf.replace(pos, from.size(), to.str());
@@ -160,6 +160,14 @@ wj::model::RobotModel withKneeUpperLimit(double kfe_upper_rad) {
   return model;
 }
 
+// Where a class's worst margin is: a joint's name, or the model's location code.
+std::string whereOf(const wj::model::RobotModel& robot, const pl::Evaluation& ev,
+                    pl::ConstraintClass c) {
+  const int loc = ev.margins[static_cast<int>(c)].location;
+  if (loc >= 0 && loc < wj::model::kNumJoints) return robot.joints()[loc].name;
+  return std::to_string(loc);
+}
+
 // The vertical preset's highest apex with each limit relaxed in turn (planner only).
 json relax(const wj::model::RobotModel& robot, int seeds, int threads) {
   struct Case {
@@ -168,13 +176,16 @@ json relax(const wj::model::RobotModel& robot, int seeds, int threads) {
     pl::PlannerSettings settings;
     const wj::model::RobotModel* robot;
   };
-  const wj::model::RobotModel knee = withKneeUpperLimit(-0.3);
+  const wj::model::RobotModel knee_flexed = withKneeRange(-2.9, -0.5);
+  const wj::model::RobotModel knee_straight = withKneeRange(-2.7, -0.3);
   std::vector<Case> cases;
   cases.push_back({"baseline", "as shipped", {}, &robot});
-  {
-    Case c{"knee_range", "knee upper limit -0.5 -> -0.3 rad (straighter)", {}, &knee};
-    cases.push_back(c);
-  }
+  cases.push_back(
+      {"knee_range_flexed", "knee lower limit -2.7 -> -2.9 rad (deeper)", {}, &knee_flexed});
+  cases.push_back({"knee_range_straight",
+                   "knee upper limit -0.5 -> -0.3 rad (straighter)",
+                   {},
+                   &knee_straight});
   {
     Case c{"envelope", "no torque-speed envelope (42 Nm up to 40 rad/s)", {}, &robot};
     c.settings.actuator_model = pl::ActuatorModel::ConstantTorque;
@@ -216,10 +227,17 @@ json relax(const wj::model::RobotModel& robot, int seeds, int threads) {
       if (seed == 1) binding = names(r.binding);
       const bool ok = r.evaluation.valid && r.evaluation.constraints_ok;
       if (ok) apex.push_back(r.evaluation.predicted.apex.base_z);
+      const pl::ClassMargin& jp =
+          r.evaluation.margins[static_cast<int>(pl::ConstraintClass::JointPosition)];
       runs.push_back({{"seed", seed},
                       {"constraints_ok", ok},
                       {"planned_base_apex_m", r.evaluation.predicted.apex.base_z},
-                      {"binding", names(r.binding)}});
+                      {"binding", names(r.binding)},
+                      {"joint_position_margin_rad", jp.worst},
+                      {"joint_position_at_s", jp.t},
+                      {"joint_position_where",
+                       whereOf(*c.robot, r.evaluation, pl::ConstraintClass::JointPosition)},
+                      {"takeoff_s", r.evaluation.predicted.takeoff.t}});
     }
     const double m = median(apex);
     if (c.name == "baseline") base = m;
