@@ -20,7 +20,7 @@ cleanup() {
   rm -rf "$WORK"
 }
 trap cleanup EXIT
-PORT=$(( 52000 + RANDOM % 2000 ))
+PORT=${WJ_E2E_PORT:-$(( 52000 + RANDOM % 2000 ))}
 sed -e "s|^listen: .*|listen: \"127.0.0.1:${PORT}\"|" -e "s|^  path: .*|  path: \"\"|" \
   "$SRC/config/planner_server.yaml" > "$WORK/server.yaml"
 sed -e "s|^  deadline_s: .*|  deadline_s: 6.0|" \
