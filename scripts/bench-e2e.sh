@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Benchmark of the end-to-end forward jump: N sensor-noise seeds of robot_client (simulated
 # robot behind emulated CAN frames) against one planner_server on loopback with an empty cache,
-# then the vertical jump. Prints one JSON document: per-seed outcome and the totals.
+# then N seeds of the jump onto the 0.25 m platform (simulated robot), then the vertical jump.
+# Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
 set -euo pipefail
 # DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
@@ -28,6 +29,11 @@ for seed in $(seq 1 "$SEEDS"); do
     --planner "127.0.0.1:${PORT}" --scenario forward --seed "$seed" --json "$@" \
     > "$WORK/forward_$seed.json" 2> "$WORK/forward_$seed.log" || true
 done
+for seed in $(seq 1 "$SEEDS"); do
+  "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
+    --planner "127.0.0.1:${PORT}" --scenario platform --seed "$seed" --json "$@" \
+    > "$WORK/platform_$seed.json" 2> "$WORK/platform_$seed.log" || true
+done
 "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
   --planner "127.0.0.1:${PORT}" --scenario vertical --seed 1 --json "$@" \
   > "$WORK/vertical.json" 2> "$WORK/vertical.log" || true
@@ -49,6 +55,21 @@ for s in range(1, seeds + 1):
                  "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"]})
 ok = [r for r in runs if r.get("success")]
 cleared = [r for r in runs if (r.get("min_wall_clearance_m") or -1) > 0 and r.get("apex_base_z_m")]
+platform = []
+for s in range(1, seeds + 1):
+    try:
+        d = json.load(open(f"{work}/platform_{s}.json"))
+    except Exception as e:
+        platform.append({"seed": s, "error": str(e)}); continue
+    sim = d.get("simulated", {})
+    platform.append({"seed": s, "success": d["success"], "verdict": d["verdict"],
+                     "landed_on_top": "landed on the platform" in d["verdict"],
+                     "apex_base_z_m": sim.get("apex_base_z_m"),
+                     "touchdown_dx_m": sim.get("touchdown_dx_m"),
+                     "planned_touchdown_dx_m": d["plan"]["predicted_touchdown_dx_m"],
+                     "final_x_m": sim.get("final_x_m"), "final_speed_m_s": sim.get("final_speed_m_s"),
+                     "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"],
+                     "transitions": [t["to"] for t in d.get("transitions", [])]})
 v = json.load(open(f"{work}/vertical.json"))
 lat = [r["plan_latency_ms"] for r in runs if r.get("plan_latency_ms") is not None]
 print(json.dumps({
@@ -58,6 +79,9 @@ print(json.dumps({
                 "plan_latency_ms": {"median": statistics.median(lat) if lat else None,
                                     "max": max(lat) if lat else None},
                 "runs": runs},
+    "platform": {"seeds": seeds, "success": sum(1 for r in platform if r.get("success")),
+                 "landed_on_top": sum(1 for r in platform if r.get("landed_on_top")),
+                 "platform_height_m": 0.25, "runs": platform},
     "vertical": {"success": v["success"], "verdict": v["verdict"],
                  "apex_base_z_m": v.get("simulated", {}).get("apex_base_z_m"),
                  "planned_apex_base_z_m": v["plan"]["predicted_apex_base_z_m"],

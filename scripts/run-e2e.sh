@@ -2,7 +2,9 @@
 # The end-to-end simulated jump (the README's main job, after the build): starts the planning
 # service on loopback, then runs the robot client on the simulated robot for the forward
 # scenario (roll up to 3 m/s, plan, jump over a 0.25 m wall, land, stop; every command and
-# measurement through emulated MIT-mode CAN frames) and the vertical scenario. Summaries on
+# measurement through emulated MIT-mode CAN frames), the vertical scenario (crouched, as high as
+# the planner reaches) and the platform scenario (roll up to 3 m/s, jump onto a 0.25 m platform,
+# land on its top). Summaries on
 # stdout, telemetry and figures in out/. Usage: scripts/run-e2e.sh [build dir] [seed]
 set -euo pipefail
 # DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
@@ -40,5 +42,6 @@ run() {
 }
 run forward --via-can
 run vertical
+run platform
 echo "telemetry and figures in out/ (e2e_*.csv, e2e_*.png); service log out/planner_server.log"
 exit "$status"

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The main job: installs the dependencies, builds the release preset, then runs the end-to-end
 # simulated jumps (scripts/run-e2e.sh: planner_server on loopback + robot_client on the Simbody
-# robot, forward over the 0.25 m wall and vertical), and finally plans the paper's presets and
-# verifies each in Simbody side by side (sim_jump). Telemetry and figures go to out/.
+# robot, forward over the 0.25 m wall, vertical and onto a 0.25 m platform), and finally plans
+# the paper's presets and the platform and verifies each in Simbody side by side (sim_jump).
+# Telemetry and figures go to out/.
 # Exit status: 0 all end-to-end runs succeeded, 3 one did not (the summary says why), 2 error.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -12,7 +13,7 @@ cmake --build --preset release
 mkdir -p out
 status=0
 bash scripts/run-e2e.sh build/release 1 || status=$?
-for task in forward_hw vertical forward; do
+for task in forward_hw vertical forward platform; do
   echo "=== sim_jump $task ==="
   rc=0
   build/release/bin/sim_jump --task "$task" --csv "out/$task.csv" --plot "out/$task.png" || rc=$?

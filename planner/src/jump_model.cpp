@@ -788,9 +788,16 @@ struct JumpModelAccess {
   // Clearance of a disc (centre p, radius r) to the obstacle. While the robot is on the ground
   // (take-off), a point below the obstacle's top must stay in front of it: this cannot be
   // tunnelled through between two samples, however fast the run-up.
+  // A wheel disc (r > 0) in flight over a platform the jump lands on (`platform`): the top is
+  // where it lands, like the ground, so only the near face and its edge are an obstacle.
   static double obstacleMargin(const BoxObstacle& box, const Eigen::Vector2d& p, double r,
-                               bool on_ground) {
+                               bool on_ground, bool platform = false) {
     if (on_ground && p.y() - r < box.height) return box.x_min - (p.x() + r);
+    if (platform && r > 0.0 && p.x() >= box.x_min) {
+      if (p.y() < box.height) return p.y() - box.height - r;  // centre below the top: inside
+      const double dx = p.x() - box.x_min, dz = p.y() - box.height;
+      return std::sqrt(dx * dx + dz * dz) - r;  // to the near top edge
+    }
     return boxDistance(box, p) - r;
   }
 
@@ -826,8 +833,8 @@ struct JumpModelAccess {
           const auto& geo = pair == 0 ? M.hind_ : M.front_;
           axle = com + R * (-c + geo.hfe_b + M.leg_.forward((*flight_q)[pair]));
         }
-        clearance =
-            std::min(clearance, obstacleMargin(*box, axle, M.wheel_radius_, smp != nullptr));
+        clearance = std::min(clearance, obstacleMargin(*box, axle, M.wheel_radius_, smp != nullptr,
+                                                       M.task_.landsOnObstacle()));
       }
       sink(ConstraintClass::ObstacleClearance, clearance - M.settings_.obstacle_margin_m, t, -3);
     }
@@ -979,13 +986,23 @@ struct JumpModelAccess {
     if (stop()) return false;
     if (M.task_.obstacle) {
       // Clearing the obstacle means landing beyond it: the rear wheel touches down past its
-      // far face (otherwise stopping short of the wall would count as clearing it).
+      // far face (otherwise stopping short of the wall would count as clearing it). Landing on
+      // it (a platform): both pairs' wheels touch down on its top, each wheel disc inside the
+      // near and the far face by the margin (one row: the smaller of the two).
       const PlanarState& td = S.touchdown;
-      const Eigen::Vector2d axle =
-          Eigen::Vector2d(td.x, td.z) +
-          Rot2(td.pitch) * (-M.c_land_ + M.hind_.hfe_b + M.leg_.forward(M.q_landing_));
-      sink(ConstraintClass::ObstacleClearance,
-           axle.x() - M.wheel_radius_ - M.task_.obstacle->x_max - st.obstacle_margin_m, S.t3, -1);
+      const BoxObstacle& box = *M.task_.obstacle;
+      const Eigen::Vector2d com(td.x, td.z);
+      const Rot2 R(td.pitch);
+      const Eigen::Vector2d leg = M.leg_.forward(M.q_landing_);
+      const Eigen::Vector2d hind = com + R * (-M.c_land_ + M.hind_.hfe_b + leg);
+      double m = hind.x() - M.wheel_radius_ - box.x_max - st.obstacle_margin_m;
+      if (M.task_.landsOnObstacle()) {
+        const Eigen::Vector2d front = com + R * (-M.c_land_ + M.front_.hfe_b + leg);
+        m = std::min(hind.x() - M.wheel_radius_ - box.x_min,
+                     box.x_max - (front.x() + M.wheel_radius_)) -
+            st.obstacle_margin_m;
+      }
+      sink(ConstraintClass::ObstacleClearance, m, S.t3, -1);
     }
     return true;
   }
@@ -1094,8 +1111,12 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   env_hfe_ = robot_.joint(Leg::LF, JointKind::HFE).actuator;
   env_kfe_ = robot_.joint(Leg::LF, JointKind::KFE).actuator;
   env_wheel_ = robot_.joint(Leg::LF, JointKind::Wheel).actuator;
-  for (auto* env : {&env_haa_, &env_hfe_, &env_kfe_, &env_wheel_})
+  for (auto* env : {&env_haa_, &env_hfe_, &env_kfe_, &env_wheel_}) {
     env->peak_torque_nm *= settings_.actuator_torque_scale;
+    // The paper's drives: the peak torque at every speed up to the no-load speed.
+    if (settings_.actuator_model == ActuatorModel::ConstantTorque)
+      env->corner_speed_rad_s = env->no_load_speed_rad_s;
+  }
   lim_hfe_ = {robot_.joint(Leg::LF, JointKind::HFE).lower_rad,
               robot_.joint(Leg::LF, JointKind::HFE).upper_rad};
   lim_kfe_ = {robot_.joint(Leg::LF, JointKind::KFE).lower_rad,

@@ -26,7 +26,15 @@ void JumpTask::validate() const {
     requireRange("task.obstacle.x_min", obstacle->x_min, -5.0, 5.0);
     requireRange("task.obstacle.x_max", obstacle->x_max, obstacle->x_min + 1e-3, 6.0);
     requireRange("task.obstacle.height", obstacle->height, 1e-3, 1.0);
+    if (landsOnObstacle())
+      requireRange("task.target.height (landing on the obstacle: CoM above its top)", target.height,
+                   obstacle->height + 0.05, 1.5);
   }
+}
+
+bool JumpTask::landsOnObstacle() const {
+  return obstacle && target.event == TargetEvent::Touchdown && target.dx > obstacle->x_min &&
+         target.dx < obstacle->x_max;
 }
 
 void InitialState::validate(const model::RobotModel& robot) const {

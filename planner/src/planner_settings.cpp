@@ -20,6 +20,16 @@ const char* toString(PolishSolver s) {
   return "?";
 }
 
+const char* toString(ActuatorModel m) {
+  switch (m) {
+    case ActuatorModel::Envelope:
+      return "envelope";
+    case ActuatorModel::ConstantTorque:
+      return "constant_torque";
+  }
+  return "?";
+}
+
 const char* toString(ConstraintClass c) {
   switch (c) {
     case ConstraintClass::NormalForce:
@@ -166,6 +176,10 @@ void PlannerSettings::validate() const {
     throw std::invalid_argument(
         "planner settings: sampling.contact_chain must be one of from_start, from_takeoff, got " +
         std::to_string(static_cast<int>(contact_chain)));
+  if (actuator_model != ActuatorModel::Envelope && actuator_model != ActuatorModel::ConstantTorque)
+    throw std::invalid_argument(
+        "planner settings: physics.actuator_model must be one of envelope, constant_torque, got " +
+        std::to_string(static_cast<int>(actuator_model)));
   if (polish_solver != PolishSolver::Sqp && polish_solver != PolishSolver::Ipopt)
     throw std::invalid_argument("planner settings: polish.solver must be one of sqp, ipopt, got " +
                                 std::to_string(static_cast<int>(polish_solver)));
@@ -240,13 +254,18 @@ PlannerSettings parse(const YAML::Node& root) {
   const std::map<std::string, Setter> top = {
       {"physics",
        [&](const YAML::Node& n) {
-         readSection(n, "physics",
-                     {{"gravity", number(s.gravity)},
-                      {"friction_mu", number(s.friction_mu)},
-                      {"min_normal_force_n", number(s.min_normal_force_n)},
-                      {"min_body_clearance_m", number(s.min_body_clearance_m)},
-                      {"obstacle_margin_m", number(s.obstacle_margin_m)},
-                      {"actuator_torque_scale", number(s.actuator_torque_scale)}});
+         readSection(
+             n, "physics",
+             {{"gravity", number(s.gravity)},
+              {"friction_mu", number(s.friction_mu)},
+              {"min_normal_force_n", number(s.min_normal_force_n)},
+              {"min_body_clearance_m", number(s.min_body_clearance_m)},
+              {"obstacle_margin_m", number(s.obstacle_margin_m)},
+              {"actuator_torque_scale", number(s.actuator_torque_scale)},
+              {"actuator_model",
+               choice(s.actuator_model, std::map<std::string, ActuatorModel>{
+                                            {"envelope", ActuatorModel::Envelope},
+                                            {"constant_torque", ActuatorModel::ConstantTorque}})}});
        }},
       {"postures",
        [&](const YAML::Node& n) {

@@ -175,8 +175,10 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // Layout version of this hash; also bumped when the polish's code changes what it returns
   // (5: the stall count's fix and the closest approach for out-of-reach targets; 6: the QP's
   // Newton matrix built without the bound rows, which changes its last bits; 7: the QP's rows
-  // screened against the step box), which the probes below, run without the polish, do not see.
-  w.put(std::uint32_t{7});
+  // screened against the step box; 8: a touchdown target over the obstacle lands on it, which
+  // the probes below, over the ground beyond their box, do not see), which the probes below,
+  // run without the polish, do not see.
+  w.put(std::uint32_t{8});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));

@@ -21,13 +21,7 @@ class SimPlanVerifier final : public PlanVerifier {
 
   VerifierVerdict verify(const planner::JumpPlan& plan,
                          const planner::JumpTask& task) const override {
-    sim::Scenario scenario;
-    if (task.obstacle) {
-      scenario.name = "wall";
-      scenario.terrain =
-          sim::Terrain::wall(task.obstacle->x_min, task.obstacle->x_max, task.obstacle->height);
-    }
-    const sim::VerificationReport r = verifier_.verify(plan, scenario);
+    const sim::VerificationReport r = verifier_.verify(plan, sim::scenarioForTask(task));
     VerifierVerdict v;
     v.passed = r.passed;
     for (const sim::FailureReason f : r.failures.toVector())

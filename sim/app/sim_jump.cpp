@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   int threads = 2;
   bool json_out = false;
-  app.add_option("--task", task, "forward | forward_hw | vertical | backflip");
+  app.add_option("--task", task, "forward | forward_hw | vertical | backflip | platform");
   app.add_option("--v0", v0, "run-up speed [m/s]");
   app.add_option("--seed", seed, "planner seed");
   app.add_option("--threads", threads, "planner threads")->check(CLI::Range(1, 64));
@@ -159,11 +159,8 @@ int main(int argc, char** argv) {
         plant_path.empty() ? sm::PlantSettings{} : sm::loadPlantSettings(plant_path);
     vs.sim = sm::applyPlant(vs.sim, plant);
     const sm::Verifier verifier(robot, vs);
-    sm::Scenario scenario;
+    sm::Scenario scenario = sm::scenarioForTask(sc.task);
     scenario.name = task;
-    if (sc.task.obstacle)
-      scenario.terrain = sm::Terrain::wall(sc.task.obstacle->x_min, sc.task.obstacle->x_max,
-                                           sc.task.obstacle->height);
     {
       // The plant's terrain (wall position error, take-off ground) on the scenario's.
       sm::SimSettings with_terrain = vs.sim;

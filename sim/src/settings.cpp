@@ -85,6 +85,12 @@ Terrain Terrain::wall(double x_min_m, double x_max_m, double height_m) {
   return t;
 }
 
+Terrain Terrain::platform(double x_min_m, double x_max_m, double height_m) {
+  Terrain t;
+  t.boxes.push_back({{x_min_m, -kFar, -kBuried}, {x_max_m, kFar, height_m}, false});
+  return t;
+}
+
 double Terrain::heightAt(double x, double y) const {
   double h = has_ground ? x * std::tan(slope_rad) : -kInf;
   for (const Box& b : boxes)

@@ -13,6 +13,20 @@
 
 namespace wj::sim {
 
+Scenario scenarioForTask(const planner::JumpTask& task) {
+  Scenario scenario;
+  if (!task.obstacle) return scenario;
+  const planner::BoxObstacle& box = *task.obstacle;
+  if (task.landsOnObstacle()) {
+    scenario.name = "platform";
+    scenario.terrain = Terrain::platform(box.x_min, box.x_max, box.height);
+  } else {
+    scenario.name = "wall";
+    scenario.terrain = Terrain::wall(box.x_min, box.x_max, box.height);
+  }
+  return scenario;
+}
+
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();

@@ -32,6 +32,11 @@ struct JumpTask {
 
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
+  /// True when the jump lands on top of the obstacle (a platform, a kerb): a touchdown target
+  /// whose CoM x lies over the box. Its wheels must then touch down on the top, inside both
+  /// faces, instead of beyond the far face, and target.height is the CoM height above the
+  /// take-off ground at touchdown (the box's height plus the standing height).
+  bool landsOnObstacle() const;
 };
 
 /// The measured state at the start of the take-off. The wheels are on flat ground; the CoM

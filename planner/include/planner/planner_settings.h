@@ -37,6 +37,20 @@ enum class PolishSolver {
 /// "sqp" or "ipopt".
 const char* toString(PolishSolver s);
 
+/// What torque the planner's model lets each drive give (`physics.actuator_model`).
+enum class ActuatorModel {
+  /// "envelope": the torque-speed envelope of models/actuators.yaml (peak torque up to the
+  /// corner speed, falling linearly to zero at the no-load speed). The default.
+  Envelope,
+  /// "constant_torque": the paper's model (Zeng et al., Sec. V-A: 42 Nm and 40 rad/s): the peak
+  /// torque at any speed up to the no-load speed. The actuator_envelope and wheel_traction
+  /// classes then check the constant peak, so the envelope never binds. For the paper-gap study
+  /// (docs/paper-gap.md): a plan made this way promises more than the drives give.
+  ConstantTorque,
+};
+/// "envelope" or "constant_torque".
+const char* toString(ActuatorModel m);
+
 /// How the take-off constraint samples chain their CoM-offset iteration (`sampling.contact_chain`;
 /// docs/planner.md, "Simplifications"). Each sample takes one step of the fixed-point iteration
 /// for c(q), warm-started from the sample next to it.
@@ -61,6 +75,9 @@ struct PlannerSettings {
   /// Scales every actuator's peak torque in the planner's model (what-if studies of stronger
   /// motors; 1 = the URDF's figures).
   double actuator_torque_scale = 1.0;
+  /// The drives' torque limit in the model (see ActuatorModel); the simulation always uses the
+  /// envelope.
+  ActuatorModel actuator_model = ActuatorModel::Envelope;
 
   // --- postures (sagittal angles of every leg; HAA held at 0)
   double stand_hfe_rad = 1.0;  ///< take-off start posture used by the presets

@@ -15,7 +15,14 @@ struct Scenario {
   InitialState initial;
 };
 
-/// Names accepted by makePreset: "forward", "forward_hw", "vertical", "backflip".
+/// The platform preset's box: height and length along x [m].
+inline constexpr double kPlatformHeight = 0.25;
+inline constexpr double kPlatformLength = 4.0;
+/// How much lower than level the hind wheels are at the platform preset's 0.2 rad nose-up
+/// touchdown [m]: the target CoM height is the standing height + the platform + this.
+inline constexpr double kPlatformHindDrop = 0.03;
+
+/// Names accepted by makePreset: "forward", "forward_hw", "vertical", "backflip", "platform".
 std::vector<std::string> presetNames();
 
 /// Builds a preset for `planner`'s robot and settings. `v0` overrides the run-up speed.
@@ -23,6 +30,8 @@ std::vector<std::string> presetNames();
 ///  - forward_hw: the same over the 0.12 m obstacle of the paper's hardware experiment.
 ///  - vertical: v0 = 0, base apex 0.7 m straight up (apex target).
 ///  - backflip: two-step take-off, a full backward rotation (+2 pi), landing 0.55 m behind.
+///  - platform: v0 = 3.0 m/s onto a 0.25 m platform 4 m long, its near face 1.6 m ahead, all
+///    four wheels landing on its top, the CoM 2.0 m ahead, 0.2 rad nose-up.
 /// Throws std::invalid_argument for an unknown name.
 Scenario makePreset(const JumpPlanner& planner, const std::string& name,
                     std::optional<double> v0 = std::nullopt);

@@ -23,10 +23,12 @@ sim::SimSettings simSettings(const ScenarioSettings& scenario, std::uint64_t see
   sim::SimSettings s;
   s.noise.enabled = noise;
   s.noise.seed = seed;
-  s.terrain = scenario.has_wall ? sim::Terrain::wall(scenario.wall_x_m,
-                                                     scenario.wall_x_m + scenario.wall_thickness_m,
-                                                     scenario.wall_height_m)
-                                : sim::Terrain::flat();
+  // A wall to clear, or a platform to land and drive on (terrain, not an obstacle).
+  const auto box = scenario.landsOnWall() ? sim::Terrain::platform : sim::Terrain::wall;
+  s.terrain = scenario.has_wall
+                  ? box(scenario.wall_x_m, scenario.wall_x_m + scenario.wall_thickness_m,
+                        scenario.wall_height_m)
+                  : sim::Terrain::flat();
   return s;
 }
 

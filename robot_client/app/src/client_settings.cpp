@@ -31,7 +31,7 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.run_up_speed_m_s, 0.0, 5.0, p + "run_up_speed_m_s");
   inRange(s.acceleration_m_s2, 0.1, 5.0, p + "acceleration_m_s2");
   inRange(s.wall_x_m, 0.5, 100.0, p + "wall.x_m");
-  inRange(s.wall_thickness_m, 0.01, 2.0, p + "wall.thickness_m");
+  inRange(s.wall_thickness_m, 0.01, 20.0, p + "wall.thickness_m");
   inRange(s.wall_height_m, 0.01, 1.0, p + "wall.height_m");
   inRange(s.takeoff_to_wall_m, 0.3, 3.0, p + "takeoff_to_wall_m");
   inRange(s.nmpc_base_height_m, 0.2, 0.45, p + "nmpc_base_height_m");
@@ -44,6 +44,9 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.duration_s, 1.0, 600.0, p + "duration_s");
   inRange(s.roll_on_speed_m_s, 0.0, 5.0, p + "after_landing.speed_m_s");
   inRange(s.roll_on_s, 0.0, 600.0, p + "after_landing.roll_s");
+  if (s.landsOnWall())
+    inRange(s.target_com_height_m, s.wall_height_m + 0.05, 1.5,
+            p + "target.com_height_m (landing on the wall: CoM above its top)");
   if (s.has_wall && s.run_up_speed_m_s > 0.0) {
     // The run-up must fit before the decision point.
     const double run_up = s.run_up_speed_m_s * s.run_up_speed_m_s / (2.0 * s.acceleration_m_s2);
@@ -90,6 +93,7 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   else
     target.fail("key '" + name + ".target.takeoff_mode': '" + mode +
                 "' is not one of simultaneous, two_step");
+  s.accept_closest_approach = target.flag("accept_closest_approach");
   target.finish();
   s.plan_timeout_s = m.number("plan_timeout_s");
   s.duration_s = m.number("duration_s");

@@ -75,7 +75,14 @@ void ControlLoop::setSpeedCommand(double v_target, double accel) {
   ++mpc_input_.command_version;
 }
 
+double ControlLoop::groundHeightAt(double x) const {
+  if (!scenario_.landsOnWall()) return estimator_.groundHeight();
+  const double near = wall_readings_ > 0 ? wall_x_est_ : scenario_.wall_x_m;
+  return x >= near && x <= near + scenario_.wall_thickness_m ? scenario_.wall_height_m : 0.0;
+}
+
 void ControlLoop::updateContacts() {
+  bool over_platform = true;
   for (int leg = 0; leg < model::kNumLegs; ++leg) {
     const auto l = static_cast<model::Leg>(leg);
     const Eigen::Vector2d q(sensors_.joints[model::jointIndex(l, model::JointKind::HFE)].q,
@@ -99,12 +106,15 @@ void ControlLoop::updateContacts() {
     Eigen::Vector3d p_BW, v_rel, axis, w_rel;
     estimator_.calcWheelKinematics(l, sensors_.joints, p_BW, v_rel, axis, w_rel);
     const estimation::EstimatedState& s = estimator_.state();
-    const double clearance =
-        (s.p_WB + s.q_WB * p_BW).z() - robot_.wheelRadius() - estimator_.groundHeight();
+    const Eigen::Vector3d p_WW = s.p_WB + s.q_WB * p_BW;  // the wheel's centre
+    const double ground = groundHeightAt(p_WW.x());
+    over_platform = over_platform && ground > 0.0;
+    const double clearance = p_WW.z() - robot_.wheelRadius() - ground;
     contact_[leg] = fz > settings_.contact.force_threshold_n &&
                     clearance < settings_.contact.max_wheel_clearance_m;
     contact_periods_[leg] = contact_[leg] ? contact_periods_[leg] + 1 : 0;
   }
+  wheels_over_platform_ = scenario_.landsOnWall() && over_platform;
 }
 
 void ControlLoop::estimate() {
@@ -171,6 +181,7 @@ void ControlLoop::postPlanRequest() {
   r.target_pitch_change_rad = scenario_.target_pitch_change_rad;
   r.event = scenario_.event;
   r.mode = scenario_.mode;
+  r.accept_closest_approach = scenario_.accept_closest_approach;
   r.has_obstacle = scenario_.has_wall;
   if (scenario_.has_wall) {
     // In J: the origin lies below the CoM at the start of take-off, the take-off point.
@@ -282,6 +293,14 @@ void ControlLoop::step() {
   if (pending_request_) postPlanRequest();
   if (out.brake) setSpeedCommand(0.0, settings_.safety.brake_decel_m_s2);
   if (out.roll_on) setSpeedCommand(scenario_.roll_on_speed_m_s, scenario_.acceleration_m_s2);
+  // A jump onto a platform: each wheel's contact test takes the ground under it
+  // (groundHeightAt); once the robot is airborne and every wheel is over the platform, the
+  // estimator's height correction takes the platform's top as its ground (the plan lands all
+  // four there). The NMPC, when it drives again, finds the terrain height from the stance
+  // wheels.
+  if ((out.mode == Mode::Flight || out.mode == Mode::Landing) && wheels_over_platform_ &&
+      estimator_.groundHeight() != scenario_.wall_height_m)
+    estimator_.setGroundHeight(scenario_.wall_height_m);
   if (out.start_takeoff) {
     takeoff_t_ = t_;
     takeoff_speed_ = speed_;

@@ -294,7 +294,15 @@ void PlanRequester::handle(const PlanRequestSnapshot& snapshot) {
     info.predicted = fromProto(r.predicted());
     info.simulated = fromProto(r.verification().simulated());
     const bool verified_ok = r.verification().status() != v1::VERIFICATION_STATUS_FAILED;
-    if (!info.feasible || !verified_ok) {
+    // A target out of reach: the closest approach is flown if it meets every constraint and
+    // the service's simulation of it passed (not merely skipped).
+    bool constraints_hold = r.feasibility().margins_size() > 0;
+    for (const v1::ConstraintMargin& m : r.feasibility().margins())
+      constraints_hold = constraints_hold && m.worst_margin() >= 0.0;
+    info.closest_approach = !info.feasible && snapshot.accept_closest_approach &&
+                            constraints_hold && r.has_plan() &&
+                            r.verification().status() == v1::VERIFICATION_STATUS_PASSED;
+    if ((!info.feasible && !info.closest_approach) || !verified_ok) {
       status = PlanStatus::Infeasible;
       if (!verified_ok) {
         info.summary += "; verification failed";

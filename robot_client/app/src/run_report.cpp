@@ -181,8 +181,14 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
   } else {
     const bool upright = std::abs(truth_.final_pitch) < 0.3 && std::abs(truth_.final_roll) < 0.3;
     const bool stopped = loop.mode() == Mode::Stand;
+    // Onto a platform: the base ends over it, at least its height above the ground.
+    const bool platform = scenario_.landsOnWall();
+    const bool on_top = platform && truth_.final_x > scenario_.wall_x_m &&
+                        truth_.final_x < scenario_.wall_x_m + scenario_.wall_thickness_m &&
+                        truth_.final_height > scenario_.wall_height_m + 0.1;
     const bool cleared =
-        !scenario_.has_wall || (truth_.min_clearance > 0.0 && truth_.final_x > scenario_.wall_x_m);
+        !scenario_.has_wall ||
+        (platform ? on_top : truth_.min_clearance > 0.0 && truth_.final_x > scenario_.wall_x_m);
     // Rolled on at the commanded speed after the landing (within 5 %), when asked to.
     const bool roll_on = scenario_.after_landing == AfterLanding::RollOn;
     const bool rolled_on =
@@ -194,8 +200,9 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
       v << (stopped ? "jumped and stopped" : "jumped, not stopped");
     } else {
       s.success = upright && stopped && cleared && rolled_on && !truth_.body_hit_ground;
-      v << (scenario_.has_wall ? (cleared ? "cleared the wall" : "DID NOT CLEAR the wall")
-                               : "jumped")
+      v << (platform ? (cleared ? "landed on the platform" : "DID NOT LAND on the platform")
+            : scenario_.has_wall ? (cleared ? "cleared the wall" : "DID NOT CLEAR the wall")
+                                 : "jumped")
         << (upright ? ", landed upright" : ", NOT upright")
         << (truth_.body_hit_ground ? ", body touched the ground" : "")
         << (roll_on ? (rolled_on ? ", rolled on" : ", DID NOT ROLL ON") : "")

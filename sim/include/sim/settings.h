@@ -101,6 +101,9 @@ struct Terrain {
   /// Flat ground with a wall spanning y, from x_min_m to x_max_m, `height_m` high (as the
   /// proto's BoxObstacle).
   static Terrain wall(double x_min_m, double x_max_m, double height_m);
+  /// Flat ground with a platform from x_min_m to x_max_m, `height_m` high, spanning y: terrain
+  /// to land and drive on (Box::obstacle = false), as the planner's obstacle a jump lands on.
+  static Terrain platform(double x_min_m, double x_max_m, double height_m);
 
   /// Height of the terrain surface under (x, y) [m]: the ground plane or the top of a box,
   /// whichever is higher; -infinity where there is nothing.

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "planner/jump_plan.h"
+#include "planner/jump_task.h"
 #include "robot_model/robot_model.h"
 #include "sim/plan_executor.h"
 #include "sim/settings.h"
@@ -109,6 +110,10 @@ struct Scenario {
   std::string name = "flat";          ///< for reports and logs
   Terrain terrain = Terrain::flat();  ///< replaces VerifierSettings::sim.terrain
 };
+
+/// The world of a planner task: flat ground, with its obstacle as a wall to clear, or as a
+/// platform to land on when the task lands on it (planner::JumpTask::landsOnObstacle()).
+Scenario scenarioForTask(const planner::JumpTask& task);
 
 /// Where the robot starts: rolling in a posture with its CoM at a planar state.
 struct InitialState {

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # End-to-end tests of robot_client against a real planner_server on loopback (ctest "app.e2e.*").
-#   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort
+#   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort|platform
 # forward: run-up, plan, jump over the 0.25 m wall through emulated CAN frames, land, roll on
 # at the run-up speed, stop.
-# vertical: the standing jump. abort: the service is unreachable; the robot must not jump and
+# vertical: the standing jump from the crouch, as high as the planner reaches (>= 0.58 m base
+# apex). platform: run-up, jump onto the 0.25 m platform, land on its top, roll on, stop there.
+# abort: the service is unreachable; the robot must not jump and
 # must stop before the wall. The test configuration gives the planner a longer deadline and the
 # wall more run-up room than the shipped one, because CI machines are slower and shared.
 set -euo pipefail
@@ -68,6 +70,16 @@ else:
     check(sim["body_touched_ground"] is False, "the body touched the ground")
     check(abs(sim["apex_base_z_m"] - d["plan"]["predicted_apex_base_z_m"]) < 0.03,
           "simulated apex more than 3 cm from the plan")
+    if case == "vertical":
+        check(sim["apex_base_z_m"] >= 0.58, f"base apex {sim['apex_base_z_m']:.3f} m below 0.58 m")
+    if case == "platform":
+        check("landed on the platform" in d["verdict"], d["verdict"])
+        # On the top the NMPC takes over, rolls on at 1 m/s, then stops there.
+        modes = [(t["from"], t["to"]) for t in d["transitions"]]
+        check(("LANDING", "ROLL") in modes, f"did not roll on after the landing: {modes}")
+        check(abs(sim["roll_on_speed_m_s"] - 1.0) < 0.07,
+              f"rolled on at {sim['roll_on_speed_m_s']} m/s, not 1 m/s")
+        check(d["final_mode"] == "STAND", d["final_mode"])
     if case == "forward":
         check(sim["min_wall_clearance_m"] > 0.0, "hit the wall")
         check(d["can"].find("dropped 0") >= 0 and d["can"].find("motor fault no") >= 0, d["can"])

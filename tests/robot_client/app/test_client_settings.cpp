@@ -80,10 +80,16 @@ TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
   const std::string config = shippedConfig();
   const auto begin = config.find("  vertical:");
   ASSERT_NE(begin, std::string::npos);
-  std::string hop = config.substr(begin);
+  // The vertical entry alone: up to the next line indented as a scenario name, if any.
+  std::size_t end = begin + 1;
+  do {
+    end = config.find("\n  ", end + 1);
+  } while (end != std::string::npos && config[end + 3] == ' ');
+  std::string hop = config.substr(begin, end == std::string::npos ? end : end + 1 - begin);
   hop.replace(0, std::string("  vertical:").size(), "  hop:");
+  const std::size_t shipped = parseClientSettings(config, "x.yaml").scenarios.size();
   const ClientSettings s = parseClientSettings(config + hop, "x.yaml");
-  ASSERT_EQ(s.scenarios.size(), 3u);
+  ASSERT_EQ(s.scenarios.size(), shipped + 1);
   EXPECT_EQ(s.scenarios.back().name, "hop");
   EXPECT_EQ(s.scenario("hop").event, planner::TargetEvent::Apex);
   const std::string bad = replace(hop, "stand_s: 1.0", "stand_s: -1.0");
@@ -106,6 +112,25 @@ TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
   }
   const std::string fast = replace(shippedConfig(), "speed_m_s: 3.0\n", "speed_m_s: 9.0\n");
   EXPECT_THROW((void)parseClientSettings(fast, "x.yaml"), std::invalid_argument);
+}
+
+TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  EXPECT_TRUE(s.scenario("platform").landsOnWall());
+  EXPECT_FALSE(s.scenario("forward").landsOnWall());
+  EXPECT_FALSE(s.scenario("vertical").landsOnWall());
+  EXPECT_TRUE(s.scenario("vertical").accept_closest_approach);
+  EXPECT_FALSE(s.scenario("forward").accept_closest_approach);
+  // Landing on top of it needs a CoM height above its top.
+  const std::string low = replace(shippedConfig(), "com_height_m: 0.549", "com_height_m: 0.26");
+  try {
+    (void)parseClientSettings(low, "x.yaml");
+    FAIL() << "accepted a touchdown below the platform's top";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("scenarios.platform.target.com_height_m"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {

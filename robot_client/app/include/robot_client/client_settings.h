@@ -104,6 +104,9 @@ struct ScenarioSettings {
   double target_pitch_change_rad = 0.25;  ///< nose-up positive [rad]
   planner::TargetEvent event = planner::TargetEvent::Touchdown;
   planner::TakeoffMode mode = planner::TakeoffMode::Simultaneous;
+  /// Fly the planner's closest approach when the target is out of reach (every constraint
+  /// met, the target missed, the service's simulation passed): "as high as it can".
+  bool accept_closest_approach = false;
   double plan_timeout_s = 3.0;  ///< standing jumps: no plan by then -> no jump [s]
   /// After the landing (YAML `after_landing: {mode, speed_m_s, roll_s}`): the executor's
   /// landing phase ends in the NMPC's posture at this speed and the NMPC takes over.
@@ -111,6 +114,13 @@ struct ScenarioSettings {
   double roll_on_speed_m_s = 3.0;  ///< roll_on: speed along the heading [m/s]
   double roll_on_s = 2.0;          ///< roll_on: how long it rolls on before it stops [s]
   double duration_s = 12.0;        ///< end of the run [s]
+
+  /// The jump lands on top of the "wall" (a platform): a touchdown target whose CoM x lies
+  /// over it, as the planner reads the same request (planner::JumpTask::landsOnObstacle()).
+  bool landsOnWall() const {
+    return has_wall && event == planner::TargetEvent::Touchdown &&
+           target_dx_m > takeoff_to_wall_m && target_dx_m < takeoff_to_wall_m + wall_thickness_m;
+  }
 };
 
 /// Everything in config/robot_client.yaml.

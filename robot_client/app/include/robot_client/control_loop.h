@@ -111,6 +111,10 @@ class ControlLoop {
   RangeSensor* range_;
   double wall_x_est_ = 0.0;  // perceived near face of the wall, estimator frame [m]
   int wall_readings_ = 0;
+  // A platform the jump lands on (ScenarioSettings::landsOnWall): the ground height under world
+  // x, from the perceived near face (the configured one without range readings) [m].
+  double groundHeightAt(double x) const;
+  bool wheels_over_platform_ = false;  // every wheel past the platform's near face
   estimation::StateEstimator estimator_;
   JumpStateMachine fsm_;
   planner::PlanarLeg leg_;

@@ -46,6 +46,9 @@ struct PlanRequestSnapshot {
   planner::TakeoffMode mode = planner::TakeoffMode::Simultaneous;
   bool has_obstacle = false;
   double obstacle_x_min_m = 0.0, obstacle_x_max_m = 0.0, obstacle_height_m = 0.0;
+  /// Fly a plan that meets every constraint but misses the target (the planner's closest
+  /// approach, e.g. the highest apex in reach), if its verification passed.
+  bool accept_closest_approach = false;
 };
 
 /// How the last request went (for the summary; read outside the loop).
@@ -56,6 +59,8 @@ struct PlanRequestInfo {
   std::string summary;       ///< feasibility summary or the error status
   int attempts = 0;
   bool feasible = false;
+  /// Not feasible, but every constraint held and the request accepted the closest approach.
+  bool closest_approach = false;
   double target_height_m = 0.0;  ///< the CoM height the request asked for [m]
   planner::JumpOutcome predicted;
   planner::JumpOutcome simulated;  ///< the service's verification run, if any
