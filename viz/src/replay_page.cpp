@@ -138,8 +138,19 @@ json pageData(const model::RobotModel& robot, const Recording& rec, const PageSe
     if (added) phases.push_back(f.phase);
     phase.push_back(it->second);
   }
+  // Boxes as far as the page shows them: the simulation's walls span y by kilometres and sit
+  // deep in the ground; 5 m beyond the run along x, 1 m either side, from just below ground.
+  double x_lo = rec.frames.front().p_WB.x(), x_hi = x_lo;
+  for (const Frame& f : rec.frames) {
+    x_lo = std::min(x_lo, f.p_WB.x());
+    x_hi = std::max(x_hi, f.p_WB.x());
+  }
+  const Eigen::Vector3d lo(x_lo - 5.0, -1.0, -0.02), hi(x_hi + 5.0, 1.0, 1e3);
   json boxes = json::array();
-  for (const SceneBox& b : rec.boxes) boxes.push_back({{"min", vec(b.min)}, {"max", vec(b.max)}});
+  for (const SceneBox& b : rec.boxes) {
+    const Eigen::Vector3d a = b.min.cwiseMax(lo), c = b.max.cwiseMin(hi);
+    if ((a.array() < c.array()).all()) boxes.push_back({{"min", vec(a)}, {"max", vec(c)}});
+  }
   json planned = json::array();
   for (const PathPoint& p : rec.planned_com)
     planned.push_back({r4(p.t), r4(p.p.x()), r4(p.p.y()), r4(p.p.z())});

@@ -42,11 +42,14 @@ std::string timeColour(int k, int n) {
   return rgb(0.12 + 0.70 * u, 0.37 - 0.12 * u, 0.75 - 0.55 * u);
 }
 
-// Text inside gnuplot single quotes (noenhanced mode: only the quote needs doubling).
+// Text as a gnuplot double-quoted string (noenhanced mode): "\n" breaks the line.
 std::string quoted(const std::string& text) {
-  std::string s = "'";
-  for (const char c : text) s += c == '\'' ? std::string("''") : std::string(1, c);
-  return s + "'";
+  std::string s = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') s += '\\';
+    s += c == '\n' ? std::string("\\n") : std::string(1, c);
+  }
+  return s + "\"";
 }
 
 std::string fixed(double v, int digits) {
@@ -76,8 +79,10 @@ void drawRobot(std::ostream& gp, int& tag, const model::RobotModel& robot, const
     const bool far = s.X_WS.translation().y() > 0.0 && s.link != 0;
     const bool wheel = s.shape.kind == model::LinkShape::Kind::Cylinder;
     const std::string border = far ? "#9a9a9a" : style.body;
-    std::string fill =
+    const std::string fill =
         s.link == 0 ? style.body : (far ? "#c8c8c8" : (wheel ? "#3a3a3a" : "#6a6a6a"));
+    // Legs and wheels twice as opaque as the body, so that they read through it.
+    const double alpha = s.link == 0 ? style.fill_alpha : std::min(1.0, 2.0 * style.fill_alpha);
     const auto outline = sideOutline(s);
     gp << "set object " << tag++ << " polygon from ";
     for (std::size_t i = 0; i <= outline.size(); ++i) {
@@ -86,15 +91,14 @@ void drawRobot(std::ostream& gp, int& tag, const model::RobotModel& robot, const
       bounds.add(p.x() + dx, p.y());
     }
     gp << " back fc rgb '" << fill << "' fs "
-       << (style.transparent ? "transparent solid " + fixed(style.fill_alpha, 2)
-                             : std::string("solid 1"))
+       << (style.transparent ? "transparent solid " + fixed(alpha, 2) : std::string("solid 1"))
        << " border lc rgb '" << border << "' lw " << style.line_width << "\n";
     if (wheel) {  // a spoke along the wheel link's x axis shows the wheel turning
       const Eigen::Vector3d c = X_WL[s.link].translation();
       const Eigen::Vector3d r = c + s.shape.size.x() * X_WL[s.link].linear().col(0);
       gp << "set arrow from " << fixed(c.x() + dx, 4) << "," << fixed(c.z(), 4) << " to "
-         << fixed(r.x() + dx, 4) << "," << fixed(r.z(), 4) << " nohead back lc rgb '" << border
-         << "' lw " << style.line_width << "\n";
+         << fixed(r.x() + dx, 4) << "," << fixed(r.z(), 4) << " nohead back lc rgb '"
+         << (far ? "#9a9a9a" : "#e8e8e8") << "' lw " << style.line_width << "\n";
     }
   }
 }
@@ -153,8 +157,8 @@ void StripSettings::validate() const {
     throw std::invalid_argument("StripSettings.landing_tail_s must be in [0, 5] s");
   if (width_px < 300 || width_px > 4000)
     throw std::invalid_argument("StripSettings.width_px must be in [300, 4000]");
-  if (!(spread_below >= 0.0 && spread_below <= 2.0))
-    throw std::invalid_argument("StripSettings.spread_below must be in [0, 2]");
+  if (!(spread_below >= 0.0 && spread_below <= 10.0))
+    throw std::invalid_argument("StripSettings.spread_below must be in [0, 10]");
 }
 
 void GifSettings::validate() const {
@@ -186,7 +190,7 @@ StripLayout planStrip(const model::RobotModel& robot, const Recording& rec,
       rec.frames[layout.frames.back()].p_WB.x() - rec.frames[layout.frames.front()].p_WB.x();
   const double length = robotLength(robot);
   const int n = static_cast<int>(layout.frames.size());
-  if (n > 1 && std::abs(travel) / (n - 1) < settings.spread_below * length)
+  if (n > 1 && std::abs(travel) < settings.spread_below * length)
     layout.spread_m = 1.15 * length - travel / (n - 1);
   return layout;
 }
@@ -219,6 +223,7 @@ void writeSnapshotStrip(const model::RobotModel& robot, const Recording& rec,
     bounds.add(f.p_WC.x() + shift(f.t), f.p_WC.z());
   }
   for (const PathPoint& p : rec.planned_com) {
+    if (p.t < t0 || p.t > t1) continue;
     plan << fixed(p.p.x() + shift(p.t), 4) << " " << fixed(p.p.z(), 4) << "\n";
     bounds.add(p.p.x() + shift(p.t), p.p.z());
   }
@@ -237,13 +242,14 @@ void writeSnapshotStrip(const model::RobotModel& robot, const Recording& rec,
      << " font ',11' noenhanced\n"
      << "set output " << quoted(png.string()) << "\n";
   std::ostringstream title;
-  title << rec.title << ": " << n << " snapshots every " << fixed(dt_snap, 3)
-        << " s from t = " << fixed(t0, 2) << " s (take-off) to " << fixed(t1, 2)
-        << " s (landing), blue to red; "
-        << "apex (t = " << fixed(apex.t, 2) << " s) in black";
+  title << rec.title << "\n"
+        << n << " snapshots every " << fixed(dt_snap, 3)
+        << " s (blue to red) from the take-off, t = " << fixed(t0, 2)
+        << " s, to after the landing, t = " << fixed(t1, 2)
+        << " s; black: the apex, t = " << fixed(apex.t, 2) << " s";
   if (layout.spread_m > 0.0)
-    title << "\\nsnapshots spread apart along x by " << fixed(layout.spread_m, 2)
-          << " m each (a jump in place): x is not to scale between snapshots";
+    title << "\na jump in place: snapshots spread apart by " << fixed(layout.spread_m, 2)
+          << " m each along x (x not to scale between snapshots)";
   gp << "set title " << quoted(title.str()) << "\n"
      << "set size ratio -1\nset grid\nset key top left opaque box\n"
      << "set xlabel 'x [m]'\nset ylabel 'z [m]'\n"
@@ -256,11 +262,12 @@ void writeSnapshotStrip(const model::RobotModel& robot, const Recording& rec,
   gp << "$sim << EOD\n" << sim.str() << "EOD\n";
   gp << "plot $sim using 1:2 with lines lw 2.5 lc rgb '#000000' title "
      << quoted(rec.source + " CoM");
-  if (!rec.planned_com.empty())
+  const bool planned = !plan.str().empty();
+  if (planned)
     gp << ", $plan using 1:2 with lines dt 2 lw 2.5 lc rgb '#e0301e' title 'planned CoM'";
   gp << "\n";
   std::string text = gp.str();
-  if (!rec.planned_com.empty()) {  // datablocks must come before the plot command
+  if (planned) {  // datablocks must come before the plot command
     const auto at = text.find("plot $sim");
     text.insert(at, "$plan << EOD\n" + plan.str() + "EOD\n");
   }
@@ -277,8 +284,9 @@ GifLayout planGif(const Recording& rec, const GifSettings& settings) {
   g.slowdown = settings.slowdown;
   g.t_begin = t0;
   g.t_end = tn;
-  const auto count = [&] {
-    return static_cast<int>((g.t_end - g.t_begin) * settings.fps * g.slowdown) + 1;
+  const auto count = [&] {  // frames at 1 / (fps * slowdown) of run time, both ends in
+    return static_cast<int>(std::floor((g.t_end - g.t_begin) * settings.fps * g.slowdown + 1e-9)) +
+           1;
   };
   if (count() > settings.max_frames) g.slowdown = std::min(1.0, settings.slowdown);
   if (count() > settings.max_frames) {  // still too long: the part around the jump
@@ -303,10 +311,12 @@ void writeAnimationGif(const model::RobotModel& robot, const Recording& rec,
     for (const PosedShape& s : calcPosedShapes(robot, rec.frames[i]))
       for (const Eigen::Vector2d& p : sideOutline(s, 12)) all.add(p.x(), p.y());
   for (const SceneBox& b : rec.boxes) all.add(b.min.x(), b.max.z());
-  const double z_top = std::max(all.z_max + 0.1, 0.8);
-  // Equal scales: the window's height follows from its width and the image's aspect.
+  // Equal scales: the window's height follows from its width and the image's aspect; the
+  // window widens if the jump is higher than that.
   const double aspect = (settings.height_px - 70.0) / (settings.width_px - 90.0);
-  const double z_bottom = std::min(-0.08, z_top - settings.window_m * aspect);
+  const double z_bottom = -0.08;
+  const double window = std::max(settings.window_m, (all.z_max + 0.1 - z_bottom) / aspect);
+  const double z_top = z_bottom + window * aspect;
 
   std::ostringstream gp, sim;
   const int delay = static_cast<int>(std::lround(100.0 / settings.fps));
@@ -332,8 +342,8 @@ void writeAnimationGif(const model::RobotModel& robot, const Recording& rec,
     const Frame& f = rec.frames[layout.frames[k]];
     const double xc = f.p_WB.x();
     Bounds view;
-    view.add(xc - 0.5 * settings.window_m, z_bottom);
-    view.add(xc + 0.5 * settings.window_m, z_top);
+    view.add(xc - 0.5 * window, z_bottom);
+    view.add(xc + 0.5 * window, z_top);
     gp << "unset object\nunset arrow\nunset label\n";
     int tag = 1;
     drawTerrain(gp, tag, rec, view);

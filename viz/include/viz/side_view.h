@@ -16,10 +16,9 @@ struct StripSettings {
   int snapshots = 7;             ///< evenly spaced instants from take-off to landing, ends included
   double landing_tail_s = 0.25;  ///< the strip goes on this long after touchdown [s]
   int width_px = 1400;           ///< image width; the height follows the scene's aspect
-  /// Snapshots closer than this fraction of the robot's length to each other are spread apart
-  /// along x (a vertical jump), each shifted by its index times one robot length; the title
-  /// says so.
-  double spread_below = 0.45;
+  /// When the robot travels less than this many robot lengths over the whole strip (a jump in
+  /// place), the snapshots are spread apart along x like a film strip; the title says so.
+  double spread_below = 1.0;
   /// Throws std::invalid_argument naming the field when out of range.
   void validate() const;
 };
