@@ -168,8 +168,18 @@ TEST(VizGif, FrameCountIsBoundedAndTheJumpIsKept) {
   EXPECT_DOUBLE_EQ(g.slowdown, 1.0);  // too long for slow motion: real time
   EXPECT_LE(g.t_begin, rec.jump_start_t);
   EXPECT_GE(g.t_end, rec.touchdown_t);
-  for (std::size_t k = 1; k < g.frames.size(); ++k)  // real time at s.fps
-    EXPECT_NEAR(rec.frames[g.frames[k]].t - rec.frames[g.frames[k - 1]].t, 1.0 / s.fps, 0.011);
+  EXPECT_GE(g.fps, 7.5);  // 30 s do not fit: the fewest frames a second, then a window
+  EXPECT_DOUBLE_EQ(g.fps, 100.0 / g.delay_cs);
+  for (std::size_t k = 1; k < g.frames.size(); ++k)  // real time at the rate used
+    EXPECT_NEAR(rec.frames[g.frames[k]].t - rec.frames[g.frames[k - 1]].t, 1.0 / g.fps, 0.011);
+  // 12 s fit at a lower frame rate: the whole run, in real time.
+  long_run.t_end = 12.0;
+  long_run.t_lift = 6.0;
+  const GifLayout whole = planGif(testing::makeSyntheticJump(robot(), long_run), s);
+  EXPECT_DOUBLE_EQ(whole.t_begin, 0.0);
+  EXPECT_NEAR(whole.t_end, 12.0, 1e-9);
+  EXPECT_LE(static_cast<int>(whole.frames.size()), s.max_frames);
+  EXPECT_NEAR((static_cast<double>(whole.frames.size()) - 1.0) / whole.fps, 12.0, 1.0 / whole.fps);
   // A short run: slowed as asked.
   const GifLayout short_run = planGif(testing::makeSyntheticJump(robot(), {}), s);
   EXPECT_DOUBLE_EQ(short_run.slowdown, s.slowdown);

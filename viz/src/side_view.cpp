@@ -108,10 +108,10 @@ void drawTerrain(std::ostream& gp, int& tag, const Recording& rec, const Bounds&
   gp << "set object " << tag++ << " rect from " << fixed(view.x_min - 1.0, 3) << ","
      << fixed(view.z_min - 1.0, 3) << " to " << fixed(view.x_max + 1.0, 3)
      << ",0 back fc rgb '#e4d9c4' fs solid 1 border lc rgb '#7a6a50'\n";
-  for (const SceneBox& b : rec.boxes)
+  for (const SceneBox& b : rec.boxes)  // what is below the ground is not seen
     gp << "set object " << tag++ << " rect from " << fixed(b.min.x(), 4) << ","
-       << fixed(b.min.z(), 4) << " to " << fixed(b.max.x(), 4) << "," << fixed(b.max.z(), 4)
-       << " back fc rgb '#a07850' fs solid 1 border lc rgb '#5a4028'\n";
+       << fixed(std::max(b.min.z(), 0.0), 4) << " to " << fixed(b.max.x(), 4) << ","
+       << fixed(b.max.z(), 4) << " back fc rgb '#a07850' fs solid 1 border lc rgb '#5a4028'\n";
 }
 
 // Runs gnuplot on `script`; throws if it fails or `out` is not there afterwards.
@@ -281,24 +281,33 @@ GifLayout planGif(const Recording& rec, const GifSettings& settings) {
   rec.validate();
   GifLayout g;
   const double t0 = rec.frames.front().t, tn = rec.frames.back().t;
-  g.slowdown = settings.slowdown;
   g.t_begin = t0;
   g.t_end = tn;
-  const auto count = [&] {  // frames at 1 / (fps * slowdown) of run time, both ends in
-    return static_cast<int>(std::floor((g.t_end - g.t_begin) * settings.fps * g.slowdown + 1e-9)) +
-           1;
+  const auto count = [&] {  // frames 1 / (fps * slowdown) of run time apart, both ends in
+    return static_cast<int>(std::floor((g.t_end - g.t_begin) * g.fps * g.slowdown + 1e-9)) + 1;
   };
+  // GIF delays are whole centiseconds: the frame rate is 100 / delay.
+  const auto useFps = [&](double fps) {
+    g.delay_cs = std::max(2, static_cast<int>(std::ceil(100.0 / fps - 1e-9)));
+    g.fps = 100.0 / g.delay_cs;
+  };
+  useFps(settings.fps);
+  g.slowdown = settings.slowdown;
+  // Too many frames: real time, then fewer frames a second (not below kMinFps), then only the
+  // part around the jump.
+  constexpr double kMinFps = 8.0;
   if (count() > settings.max_frames) g.slowdown = std::min(1.0, settings.slowdown);
-  if (count() > settings.max_frames) {  // still too long: the part around the jump
-    const double span = (settings.max_frames - 1) / (settings.fps * g.slowdown);
+  if (count() > settings.max_frames)
+    useFps(std::max(kMinFps, (settings.max_frames - 1) / (g.slowdown * (tn - t0))));
+  if (count() > settings.max_frames) {
+    const double span = (settings.max_frames - 1) / (g.fps * g.slowdown);
     const auto [a, b] = jumpWindow(rec, 0.0);
     const double centre = std::isfinite(rec.jump_start_t) ? 0.5 * (a + b) : 0.5 * (t0 + tn);
     g.t_begin = std::clamp(centre - 0.5 * span, t0, tn - span);
     g.t_end = g.t_begin + span;
   }
   const int n = std::min(count(), settings.max_frames);
-  for (int k = 0; k < n; ++k)
-    g.frames.push_back(rec.frameAt(g.t_begin + k / (settings.fps * g.slowdown)));
+  for (int k = 0; k < n; ++k) g.frames.push_back(rec.frameAt(g.t_begin + k / (g.fps * g.slowdown)));
   return g;
 }
 
@@ -319,9 +328,8 @@ void writeAnimationGif(const model::RobotModel& robot, const Recording& rec,
   const double z_top = z_bottom + window * aspect;
 
   std::ostringstream gp, sim;
-  const int delay = static_cast<int>(std::lround(100.0 / settings.fps));
-  gp << "set terminal gif animate delay " << delay << " loop 0 size " << settings.width_px << ","
-     << settings.height_px << " font 'DejaVuSans,9' noenhanced\n"
+  gp << "set terminal gif animate delay " << layout.delay_cs << " loop 0 size " << settings.width_px
+     << "," << settings.height_px << " font 'DejaVuSans,9' noenhanced\n"
      << "set output " << quoted(gif.string()) << "\n"
      << "set size ratio -1\nset grid\nset key top right opaque\nset xlabel 'x [m]'\n"
      << "set yrange [" << fixed(z_bottom, 3) << ":" << fixed(z_top, 3) << "]\n";
@@ -352,11 +360,11 @@ void writeAnimationGif(const model::RobotModel& robot, const Recording& rec,
     gp << "set label 1 " << quoted("t = " + fixed(f.t, 2) + " s  " + f.phase)
        << " at graph 0.02, graph 0.93 front\n"
        << "set xrange [" << fixed(view.x_min, 3) << ":" << fixed(view.x_max, 3) << "]\n"
-       << "plot $sim every ::0::" << k << " using 1:2 with lines lw 2 lc rgb '#000000' title "
-       << quoted(rec.source + " CoM");
+       << "plot ";
     if (!rec.planned_com.empty())
-      gp << ", $plan using 1:2 with lines dt 2 lw 2 lc rgb '#e0301e' title 'planned CoM'";
-    gp << "\n";
+      gp << "$plan using 1:2 with lines lw 1.5 lc rgb '#e0301e' title 'planned CoM', ";
+    gp << "$sim every ::0::" << k << " using 1:2 with lines lw 2 lc rgb '#000000' title "
+       << quoted(rec.source + " CoM") << "\n";
   }
   gp << "unset output\n";
   const std::filesystem::path script = gif.string() + ".gp";

@@ -46,12 +46,16 @@ struct StripLayout {
 StripLayout planStrip(const model::RobotModel& robot, const Recording& rec,
                       const StripSettings& settings);
 
-/// The frames the GIF shows and the playback speed it ends up with.
+/// The frames the GIF shows and the playback it ends up with.
 struct GifLayout {
   std::vector<int> frames;            ///< frame indices, time order
-  double slowdown = 1.0;              ///< wall time per simulated time actually used
-  double t_begin = 0.0, t_end = 0.0;  ///< simulated time span shown [s]
+  double slowdown = 1.0;              ///< wall time per run time actually used
+  double fps = 20.0;                  ///< frames per second actually used (100 / delay_cs)
+  int delay_cs = 5;                   ///< GIF frame delay [1/100 s]
+  double t_begin = 0.0, t_end = 0.0;  ///< run time span shown [s]
 };
+/// Slowed as asked if the frames fit in max_frames; else real time; else fewer frames a second
+/// (down to 8); else only the part around the jump.
 GifLayout planGif(const Recording& rec, const GifSettings& settings);
 
 /// Writes the snapshot strip as a PNG (gnuplot pngcairo). The gnuplot script is kept beside it
