@@ -27,8 +27,7 @@ struct StripSettings {
 struct GifSettings {
   double fps = 20.0;      ///< frames per second of the GIF (2 to 50)
   double slowdown = 2.0;  ///< wall time per simulated time (1 = real time, 2 = half speed)
-  int max_frames = 240;   ///< bound on the frame count; a longer run plays faster (real time)
-                          ///< and, if still too long, only the part around the jump is shown
+  int max_frames = 120;   ///< bound on the frame count, so that files stay small (planGif)
   double window_m = 3.2;  ///< width of the camera window that follows the robot [m]
   int width_px = 640;     ///< image size
   int height_px = 300;
