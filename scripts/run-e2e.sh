@@ -37,11 +37,15 @@ run() {
   local rc=0
   "$BIN/robot_client" --backend sim "$@" --config config/robot_client.yaml \
     --planner "127.0.0.1:${PORT}" --scenario "$scenario" --seed "$SEED" \
-    --csv "out/e2e_${scenario}.csv" --plot "out/e2e_${scenario}.png" || rc=$?
+    --csv "out/e2e_${scenario}.csv" --plot "out/e2e_${scenario}.png" \
+    --snapshots "out/e2e_${scenario}_snapshots.png" --gif "out/e2e_${scenario}.gif" \
+    --html "out/e2e_${scenario}.html" || rc=$?
   if [ "$rc" -eq 2 ]; then status=2; elif [ "$rc" -ne 0 ] && [ "$status" -eq 0 ]; then status=3; fi
 }
 run forward --via-can
 run vertical
 run platform
 echo "telemetry and figures in out/ (e2e_*.csv, e2e_*.png); service log out/planner_server.log"
+echo "pictures of the runs: out/e2e_<scenario>_snapshots.png (snapshot strip), out/e2e_<scenario>.gif"
+echo "  (animation), out/e2e_<scenario>.html (3D replay: open it in a browser, works offline)"
 exit "$status"

@@ -3,7 +3,8 @@
 # simulated jumps (scripts/run-e2e.sh: planner_server on loopback + robot_client on the Simbody
 # robot, forward over the 0.25 m wall, vertical and onto a 0.25 m platform), and finally plans
 # the paper's presets and the platform and verifies each in Simbody side by side (sim_jump).
-# Telemetry and figures go to out/.
+# Telemetry, figures and pictures of every jump (snapshot strip, GIF, 3D replay page) go to
+# out/.
 # Exit status: 0 all end-to-end runs succeeded, 3 one did not (the summary says why), 2 error.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -16,8 +17,10 @@ bash scripts/run-e2e.sh build/release 1 || status=$?
 for task in forward_hw vertical forward platform; do
   echo "=== sim_jump $task ==="
   rc=0
-  build/release/bin/sim_jump --task "$task" --csv "out/$task.csv" --plot "out/$task.png" || rc=$?
+  build/release/bin/sim_jump --task "$task" --csv "out/$task.csv" --plot "out/$task.png" \
+    --snapshots "out/${task}_snapshots.png" --gif "out/$task.gif" --html "out/$task.html" || rc=$?
   if [ "$rc" -eq 2 ]; then status=2; fi
 done
-echo "telemetry and figures in out/"
+echo "telemetry and figures in out/; pictures of every jump: out/*_snapshots.png (snapshot strips),"
+echo "out/*.gif (animations), out/*.html (3D replays: open one in a browser, works offline)"
 exit "$status"

@@ -60,6 +60,41 @@ Inertia toInertia(const urdf::Link& link) {
   return I;
 }
 
+// The <collision> elements of a link that are boxes, cylinders or spheres (meshes are skipped:
+// nothing in the stack reads them).
+std::vector<LinkShape> toShapes(const urdf::Link& link) {
+  std::vector<LinkShape> shapes;
+  for (const auto& c : link.collision_array) {
+    if (!c || !c->geometry) continue;
+    LinkShape s;
+    s.X_LS = toIsometry(c->origin);
+    switch (c->geometry->type) {
+      case urdf::Geometry::BOX: {
+        const auto& b = static_cast<const urdf::Box&>(*c->geometry);
+        s.kind = LinkShape::Kind::Box;
+        s.size = Eigen::Vector3d(b.dim.x, b.dim.y, b.dim.z);
+        break;
+      }
+      case urdf::Geometry::CYLINDER: {
+        const auto& cy = static_cast<const urdf::Cylinder&>(*c->geometry);
+        s.kind = LinkShape::Kind::Cylinder;
+        s.size = Eigen::Vector3d(cy.radius, cy.radius, cy.length);
+        break;
+      }
+      case urdf::Geometry::SPHERE: {
+        const auto& sp = static_cast<const urdf::Sphere&>(*c->geometry);
+        s.kind = LinkShape::Kind::Sphere;
+        s.size = Eigen::Vector3d::Constant(sp.radius);
+        break;
+      }
+      default:
+        continue;
+    }
+    shapes.push_back(s);
+  }
+  return shapes;
+}
+
 JointKind parseKind(const std::filesystem::path& file, const std::string& suffix) {
   if (suffix == "HAA") return JointKind::HAA;
   if (suffix == "HFE") return JointKind::HFE;
@@ -191,7 +226,7 @@ RobotModel RobotModel::load(const std::filesystem::path& urdf_path,
 
   const urdf::LinkConstSharedPtr root = urdf_model->getRoot();
   if (!root) fail(urdf_path, "no root link");
-  m.links_.push_back({root->name, toInertia(*root), -1});
+  m.links_.push_back({root->name, toInertia(*root), -1, toShapes(*root)});
   for (const auto& c : root->collision_array)
     if (c && c->geometry && c->geometry->type == urdf::Geometry::BOX) {
       const auto& box = static_cast<const urdf::Box&>(*c->geometry);
@@ -243,7 +278,7 @@ RobotModel RobotModel::load(const std::filesystem::path& urdf_path,
       const urdf::LinkConstSharedPtr child = urdf_model->getLink(uj->child_link_name);
       if (!child) fail(urdf_path, uj->name + ": child link missing");
       j.child_link = static_cast<int>(m.links_.size());
-      m.links_.push_back({child->name, toInertia(*child), index});
+      m.links_.push_back({child->name, toInertia(*child), index, toShapes(*child)});
       if (kind == JointKind::Wheel) {
         for (const auto& c : child->collision_array)
           if (c && c->geometry && c->geometry->type == urdf::Geometry::CYLINDER) {

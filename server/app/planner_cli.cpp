@@ -2,6 +2,7 @@
 //   planner_cli plan --v0 3 --dx 2.1 --height 0.36 --event touchdown --obstacle 1.2,1.3,0.25
 //   planner_cli stats
 //   planner_cli warm --v0-min 0 --v0-max 3 --v0-step 0.05 --dx 0 --height 0.6
+//   planner_cli plan --v0 3 ... --html plan.html --snapshots plan.png   (the plan alone, drawn)
 // Exit status: 0 answered (and feasible for plan), 3 answered but infeasible, 1 RPC error,
 // 2 bad command line.
 #include <google/protobuf/util/json_util.h>
@@ -12,6 +13,9 @@
 #include <sstream>
 
 #include "planner_client/planner_client.h"
+#include "robot_model/robot_model.h"
+#include "viz/replay_page.h"
+#include "viz/side_view.h"
 
 namespace v1 = wheeljump::planner::v1;
 
@@ -82,6 +86,43 @@ struct TaskArgs {
   }
 };
 
+// The plan alone as the viewers see it: the robot placed by the planned CoM, pitch and joint
+// references (the planner's rigid-body placement), the obstacle of the task. Frames end at the
+// planned touchdown; their CoM path is the plan's (no second, "planned" path).
+wj::viz::Recording planRecording(const wj::model::RobotModel& robot, const v1::Plan& plan,
+                                 const v1::JumpTask& task) {
+  constexpr int kJ = wj::model::kNumJoints;
+  const v1::JointTrajectory& joints = plan.joints();
+  const int n = std::min(plan.centroidal_trajectory_size(), static_cast<int>(joints.num_samples()));
+  if (n < 2 || joints.positions_rad_size() < n * kJ)
+    throw std::runtime_error("the answer has no dense trajectory to draw");
+  wj::viz::Recording rec;
+  rec.title = "planner_cli plan";
+  rec.source = "planned";
+  const v1::PhaseTimes& pt = plan.phase_times();
+  for (int k = 0; k < n; ++k) {
+    const v1::CentroidalSample& c = plan.centroidal_trajectory(k);
+    Eigen::VectorXd q(kJ);
+    for (int j = 0; j < kJ; ++j) q[j] = joints.positions_rad(k * kJ + j);
+    wj::viz::Frame f =
+        wj::viz::makePlanarFrame(robot, c.t_s(), c.com_x_m(), c.com_z_m(), c.pitch_rad(), q);
+    for (int j = 0; j < kJ; ++j) {
+      if (joints.torques_nm_size() >= n * kJ) f.tau[j] = joints.torques_nm(k * kJ + j);
+      if (joints.velocities_rad_s_size() >= n * kJ) f.qd[j] = joints.velocities_rad_s(k * kJ + j);
+    }
+    f.phase = c.t_s() < pt.t1_s() ? "four wheels" : c.t_s() < pt.t2_s() ? "hind wheels" : "flight";
+    if (!rec.frames.empty() && !(f.t > rec.frames.back().t)) continue;
+    rec.frames.push_back(std::move(f));
+  }
+  if (task.has_obstacle())
+    rec.boxes.push_back(
+        {Eigen::Vector3d(task.obstacle().x_min_m(), -1.0, 0.0),
+         Eigen::Vector3d(task.obstacle().x_max_m(), 1.0, task.obstacle().height_m())});
+  rec.jump_start_t = 0.0;
+  rec.touchdown_t = pt.t3_s();
+  return rec;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -105,7 +146,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 0;
   unsigned candidates = 0;
   bool skip_verification = false, full = false;
-  std::string request_id = "planner_cli";
+  std::string request_id = "planner_cli", html, snapshots;
   plan->add_option("--v0", v0, "run-up speed along the heading [m/s]")->capture_default_str();
   plan->add_option("--hfe", hfe, "HFE angle of every leg at take-off [rad]")->capture_default_str();
   plan->add_option("--kfe", kfe, "KFE angle of every leg at take-off [rad]")->capture_default_str();
@@ -116,6 +157,8 @@ int main(int argc, char** argv) {
   plan->add_flag("--full", full, "print the whole response, dense trajectories included");
   plan->add_option("--request-id", request_id, "request id echoed by the server")
       ->capture_default_str();
+  plan->add_option("--html", html, "write a 3D page that plays the plan (HTML)");
+  plan->add_option("--snapshots", snapshots, "write a snapshot strip of the plan (PNG)");
 
   auto* stats = app.add_subcommand("stats", "print the server's counters and latencies");
 
@@ -152,11 +195,19 @@ int main(int argc, char** argv) {
       r.mutable_budget()->set_max_verified_candidates(candidates);
       r.mutable_budget()->set_skip_verification(skip_verification);
       r.set_request_id(request_id);
+      const bool draw = !html.empty() || !snapshots.empty();
+      if (draw) r.set_trajectory_format(v1::TRAJECTORY_FORMAT_DENSE);
       const auto result = client.planJump(r, deadline).get();
       if (!result.ok()) {
         std::cerr << "planner_cli: PlanJump failed: " << result.status.error_code() << " "
                   << result.status.error_message() << "\n";
         return 1;
+      }
+      if (draw) {
+        const auto robot = wj::model::RobotModel::loadDefault();
+        const wj::viz::Recording rec = planRecording(robot, result.response.plan(), r.task());
+        if (!html.empty()) wj::viz::writeReplayPage(robot, rec, html);
+        if (!snapshots.empty()) wj::viz::writeSnapshotStrip(robot, rec, snapshots);
       }
       v1::PlanJumpResponse shown = result.response;
       if (!full) {

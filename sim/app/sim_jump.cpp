@@ -1,6 +1,7 @@
 // sim_jump: plans a jump with the planner library, verifies it in the Simbody simulation, and
 // prints the plan's prediction and the simulated outcome side by side. Writes CSV telemetry and,
-// with --plot, figures like the paper's Fig. 7 and Fig. 11 (gnuplot).
+// with --plot, figures like the paper's Fig. 7 and Fig. 11 (gnuplot); with --snapshots, --gif and
+// --html, pictures of the jump (viz/: snapshot strip, side-view animation, 3D replay page).
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cmath>
@@ -20,6 +21,8 @@
 #include "sim/statics.h"
 #include "sim/telemetry.h"
 #include "sim/verifier.h"
+#include "viz/replay_page.h"
+#include "viz/side_view.h"
 
 namespace {
 
@@ -118,6 +121,48 @@ double predictedTouchdownWheelGap(const wj::model::RobotModel& robot, const pl::
   return gap;
 }
 
+// Where the pictures of the run go ("" = not wanted).
+struct PictureFiles {
+  std::string strip, gif, html;
+  bool any() const { return !strip.empty() || !gif.empty() || !html.empty(); }
+};
+
+// The run as the viewers see it: Simbody's ground truth per control period, the plan's CoM path
+// (the world frame is the plan's jump frame: CoM at x = 0 at the start of take-off) and the
+// terrain's boxes.
+wj::viz::Recording makeRecording(const std::string& title, const sm::TelemetryRecorder& recorder,
+                                 const pl::JumpPlan& plan, const sm::Scenario& scenario,
+                                 const pl::JumpOutcome& simulated) {
+  wj::viz::Recording rec;
+  rec.title = title;
+  for (const sm::TelemetrySample& s : recorder.samples()) {
+    wj::viz::Frame f;
+    f.t = s.t;
+    f.p_WB = s.p_WB;
+    f.q_WB = s.q_WB;
+    f.q = s.q;
+    f.qd = s.qd;
+    f.tau = s.tau;
+    f.p_WC = s.p_WC;
+    f.phase = std::string(sm::toString(s.phase));
+    if (rec.frames.empty() || f.t > rec.frames.back().t) rec.frames.push_back(std::move(f));
+  }
+  for (const sm::Box& b : scenario.terrain.boxes) rec.boxes.push_back({b.min, b.max});
+  for (int k = 0; k < plan.numSamples(); ++k)
+    rec.planned_com.push_back(
+        {k * plan.dt, Eigen::Vector3d(plan.centroidal[k].x, 0.0, plan.centroidal[k].z)});
+  rec.jump_start_t = 0.0;
+  rec.touchdown_t = simulated.touchdown.t > 0.0 ? simulated.touchdown.t : plan.t3;
+  return rec;
+}
+
+void writePictures(const PictureFiles& files, const wj::model::RobotModel& robot,
+                   const wj::viz::Recording& rec) {
+  if (!files.strip.empty()) wj::viz::writeSnapshotStrip(robot, rec, files.strip);
+  if (!files.gif.empty()) wj::viz::writeAnimationGif(robot, rec, files.gif);
+  if (!files.html.empty()) wj::viz::writeReplayPage(robot, rec, files.html);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -127,6 +172,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   int threads = 2;
   bool json_out = false;
+  PictureFiles pictures;
   app.add_option("--task", task, "forward | forward_hw | vertical | backflip | platform");
   app.add_option("--v0", v0, "run-up speed [m/s]");
   app.add_option("--seed", seed, "planner seed");
@@ -139,6 +185,10 @@ int main(int argc, char** argv) {
                  "planner's model (docs/sim.md, 'Plant')");
   app.add_option("--csv", csv_path, "write telemetry CSV here");
   app.add_option("--plot", plot_path, "write a PNG figure here (gnuplot)");
+  app.add_option("--snapshots", pictures.strip,
+                 "write a snapshot strip here (PNG: the robot from take-off to landing)");
+  app.add_option("--gif", pictures.gif, "write a side-view animation of the run here (GIF)");
+  app.add_option("--html", pictures.html, "write a 3D replay page of the run here (HTML)");
   app.add_flag("--json", json_out, "print JSON");
   CLI11_PARSE(app, argc, argv);
   try {
@@ -176,6 +226,10 @@ int main(int argc, char** argv) {
       recorder.writeCsv(out);
     }
     if (!plot_path.empty()) plot(plot_path, csv_path, r.plan, robot);
+    if (pictures.any())
+      writePictures(
+          pictures, robot,
+          makeRecording("sim_jump --task " + task, recorder, r.plan, scenario, v.measured));
 
     const pl::JumpOutcome& p = r.evaluation.predicted;
     const pl::JumpOutcome& s = v.measured;
@@ -248,6 +302,10 @@ int main(int argc, char** argv) {
       for (const auto& reason : v.reasons) std::cout << "    - " << reason << "\n";
       if (!csv_path.empty()) std::cout << "  telemetry: " << csv_path << "\n";
       if (!plot_path.empty()) std::cout << "  figure: " << plot_path << "\n";
+      for (const auto& [what, path] : {std::pair{"snapshot strip", pictures.strip},
+                                       {"animation", pictures.gif},
+                                       {"3D replay", pictures.html}})
+        if (!path.empty()) std::cout << "  " << what << ": " << path << "\n";
     }
     return v.passed ? 0 : 3;
   } catch (const std::exception& e) {

@@ -30,6 +30,8 @@
 #include "rt/periodic_timer.h"
 #include "rt/realtime.h"
 #include "rt/watchdog.h"
+#include "viz/replay_page.h"
+#include "viz/side_view.h"
 
 namespace {
 
@@ -46,11 +48,24 @@ struct Options {
   bool noise = true;
   std::string csv;
   std::string plot;
+  std::string snapshots, gif, html;  ///< pictures of the run (viz/), "" = none
   bool json_out = false;
   bool fast = false;
   std::vector<std::string> can_interfaces = {"can0", "can1", "can2", "can3"};
   std::string plant;  // sim backend: plant file (sim/plant.h); "" = the nominal robot
 };
+
+// The snapshot strip, the animation and the 3D replay page asked for on the command line.
+void writePictures(const Options& opt, const wj::model::RobotModel& robot,
+                   const wj::viz::Recording& rec) {
+  if (opt.snapshots.empty() && opt.gif.empty() && opt.html.empty()) return;
+  if (rec.frames.empty()) throw std::runtime_error("no frames recorded for the pictures");
+  if (!opt.snapshots.empty()) wj::viz::writeSnapshotStrip(robot, rec, opt.snapshots);
+  if (!opt.gif.empty()) wj::viz::writeAnimationGif(robot, rec, opt.gif);
+  if (!opt.html.empty()) wj::viz::writeReplayPage(robot, rec, opt.html);
+  for (const std::string* path : {&opt.snapshots, &opt.gif, &opt.html})
+    if (!path->empty()) spdlog::info("wrote {}", *path);
+}
 
 int run(const Options& opt) {
   const wj::model::RobotModel robot = wj::model::RobotModel::loadDefault();
@@ -86,6 +101,7 @@ int run(const Options& opt) {
   rc::ControlLoop loop(robot, settings, scenario, backend->robot(), controller, mpc,
                        requester.get(), backend->faults(), backend->rangeSensor());
   rc::RunRecorder recorder(robot, settings, scenario, opt.csv);
+  if (!opt.snapshots.empty() || !opt.gif.empty() || !opt.html.empty()) recorder.keepFrames();
 
   loop.initialise(backend->startPosition());
   mpc.start();
@@ -162,6 +178,7 @@ int run(const Options& opt) {
   else
     summary.printTable(std::cout);
   if (!opt.plot.empty()) recorder.plot(opt.plot, loop);
+  writePictures(opt, robot, recorder.recording(loop, requester.get()));
   return summary.success ? 0 : 3;
 }
 
@@ -188,6 +205,10 @@ int main(int argc, char** argv) {
                  "differs from the model the controllers use (docs/sim.md, 'Plant')");
   app.add_option("--csv", opt.csv, "telemetry CSV file");
   app.add_option("--plot", opt.plot, "figure (PNG, gnuplot)");
+  app.add_option("--snapshots", opt.snapshots,
+                 "snapshot strip of the jump (PNG: the robot from take-off to landing)");
+  app.add_option("--gif", opt.gif, "side-view animation of the run (GIF)");
+  app.add_option("--html", opt.html, "3D replay page of the run (HTML, three.js inlined)");
   app.add_flag("--json", opt.json_out, "print the summary as JSON");
   app.add_flag("--fast", opt.fast,
                "sim backend: do not pace simulated time to the wall clock (plan latency then "

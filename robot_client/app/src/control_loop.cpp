@@ -304,7 +304,7 @@ void ControlLoop::step() {
   if (out.start_takeoff) {
     takeoff_t_ = t_;
     takeoff_speed_ = speed_;
-    if (sim::PlanExecutor* ex = executor(); ex != nullptr) ex->setHandover(handover_);
+    if (sim::PlanExecutor* jump = executor(); jump != nullptr) jump->setHandover(handover_);
     mpc_input_.active = false;
     mpc_.post(mpc_input_);  // pauses the NMPC for the jump
   }

@@ -30,6 +30,23 @@ std::string fmt(double v, int precision = 3) {
   return s.str();
 }
 
+// A frame from the estimate (hardware: no ground truth). Yaw is not estimated: zero.
+viz::Frame estimatedFrame(const model::RobotModel& robot, const TelemetrySample& s) {
+  viz::Frame f;
+  f.t = s.t;
+  f.p_WB = Eigen::Vector3d(s.p_WB[0], s.p_WB[1], s.p_WB[2]);
+  f.q_WB = Eigen::Quaterniond(Eigen::AngleAxisd(s.pitch, Eigen::Vector3d::UnitY()) *
+                              Eigen::AngleAxisd(s.roll, Eigen::Vector3d::UnitX()));
+  f.q = s.q;
+  f.qd = s.qd;
+  f.tau = s.tau;
+  Eigen::VectorXd q(model::kNumJoints);
+  for (int j = 0; j < model::kNumJoints; ++j) q[j] = s.q[j];
+  f.p_WC = f.p_WB + f.q_WB.toRotationMatrix() * robot.calcCompositeInertia(q).com;
+  f.phase = std::string(toString(s.mode));
+  return f;
+}
+
 }  // namespace
 
 RunRecorder::RunRecorder(const model::RobotModel& robot, const ClientSettings& settings,
@@ -56,6 +73,11 @@ void RunRecorder::drain(ControlLoop& loop) {
   }
   TelemetrySample s;
   while (loop.telemetry().tryPop(s)) {
+    if (keep_frames_ && !truth_.available && (frames_.empty() || s.t > frames_.back().t)) {
+      frames_.push_back(estimatedFrame(robot_, s));
+      if (s.mode == Mode::Takeoff && std::isnan(frames_takeoff_com_x_))
+        frames_takeoff_com_x_ = frames_.back().p_WC.x();
+    }
     if (!csv_.is_open()) continue;
     csv_ << s.t << "," << toString(s.mode);
     for (double v : s.p_WB) csv_ << "," << v;
@@ -104,6 +126,22 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
     truth_.touchdown_dx = gt.p_WC.x() - truth_.takeoff_com_x;
   if (m == Mode::Roll && loop.stateMachine().rolledOn()) truth_.roll_on_speed = gt.v_WB.x();
   truth_.min_clearance = std::min(truth_.min_clearance, gt.obstacle_clearance_m);
+  if (keep_frames_ && (frames_.empty() || t_read > frames_.back().t)) {
+    viz::Frame f;
+    f.t = t_read;
+    f.p_WB = p;
+    f.q_WB = Eigen::Quaterniond(R);
+    for (int j = 0; j < model::kNumJoints; ++j) {
+      f.q[j] = gt.q[j];
+      f.qd[j] = gt.qd[j];
+      f.tau[j] = gt.tau[j];
+    }
+    f.p_WC = gt.p_WC;
+    f.phase = std::string(toString(m));
+    frames_.push_back(std::move(f));
+    if (m == Mode::Takeoff && std::isnan(frames_takeoff_com_x_))
+      frames_takeoff_com_x_ = gt.p_WC.x();
+  }
   truth_.body_hit_ground = truth_.body_hit_ground || gt.base_in_contact || gt.legs_in_contact;
   truth_.final_x = p.x();
   truth_.final_pitch = pitch;
@@ -313,6 +351,37 @@ void RunSummary::printTable(std::ostream& out) const {
   out << "  transitions:";
   for (const Transition& t : transitions) out << " " << toString(t.to) << "@" << fmt(t.t, 2);
   out << "\n  verdict: " << verdict << (success ? " -> SUCCESS" : " -> FAILED") << "\n";
+}
+
+viz::Recording RunRecorder::recording(const ControlLoop& loop,
+                                      const PlanRequester* requester) const {
+  viz::Recording rec;
+  rec.title = "robot_client " + scenario_.name;
+  rec.source = truth_.available ? "simulated" : "estimated";
+  rec.frames = frames_;
+  if (scenario_.has_wall)
+    rec.boxes.push_back({Eigen::Vector3d(scenario_.wall_x_m, -1.0, 0.0),
+                         Eigen::Vector3d(scenario_.wall_x_m + scenario_.wall_thickness_m, 1.0,
+                                         scenario_.wall_height_m)});
+  const double takeoff = loop.takeoffTime();
+  if (std::isfinite(takeoff)) {
+    rec.jump_start_t = takeoff;
+    for (const Transition& tr : transitions_)
+      if (tr.to == Mode::Landing && tr.t >= takeoff) {
+        rec.touchdown_t = tr.t;
+        break;
+      }
+  }
+  // The plan is in its jump frame: x from the CoM at the start of take-off, z from the ground.
+  if (requester != nullptr && requester->status() == PlanStatus::Feasible &&
+      std::isfinite(takeoff) && std::isfinite(frames_takeoff_com_x_)) {
+    const planner::JumpPlan& plan = requester->plan();
+    for (int k = 0; k < plan.numSamples(); ++k)
+      rec.planned_com.push_back(
+          {takeoff + k * plan.dt, Eigen::Vector3d(frames_takeoff_com_x_ + plan.centroidal[k].x, 0.0,
+                                                  plan.centroidal[k].z)});
+  }
+  return rec;
 }
 
 void RunRecorder::plot(const std::string& png, const ControlLoop& loop) const {

@@ -56,11 +56,22 @@ struct Inertia {
   Eigen::Matrix3d inertia_com = Eigen::Matrix3d::Zero();  ///< about the CoM [kg m^2]
 };
 
+/// One collision element of a link, as the URDF gives it (drawn by the viewers in viz/).
+struct LinkShape {
+  enum class Kind : std::uint8_t { Box, Cylinder, Sphere };
+  Kind kind = Kind::Box;
+  Eigen::Isometry3d X_LS = Eigen::Isometry3d::Identity();  ///< shape frame in the link frame
+  /// Box: full side lengths along x, y, z of S; cylinder: (radius, radius, length along z of S);
+  /// sphere: (radius, radius, radius) [m].
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();
+};
+
 /// One link of the tree.
 struct LinkSpec {
   std::string name;
-  Inertia inertia;        ///< in the link frame
-  int parent_joint = -1;  ///< index into joints(), -1 for the base
+  Inertia inertia;                ///< in the link frame
+  int parent_joint = -1;          ///< index into joints(), -1 for the base
+  std::vector<LinkShape> shapes;  ///< the link's <collision> boxes, cylinders and spheres
 };
 
 /// One actuated joint.

@@ -16,6 +16,7 @@
 #include "robot_client/control_loop.h"
 #include "robot_client/mpc_worker.h"
 #include "robot_model/robot_model.h"
+#include "viz/recording.h"
 
 namespace wj::sim {
 struct GroundTruth;
@@ -97,6 +98,11 @@ class RunRecorder {
                        const Backend& backend, const MpcCounters& mpc);
   /// Figures (gnuplot): speed, heights and modes; left-front joint torques with limits.
   void plot(const std::string& png, const ControlLoop& loop) const;
+  /// Keeps every period's pose from now on, for the pictures (--snapshots, --gif, --html).
+  void keepFrames() { keep_frames_ = true; }
+  /// The run for the viewers (viz/): the ground truth in simulation, else the estimate; the
+  /// plan's CoM path placed where the take-off started; the scenario's wall.
+  viz::Recording recording(const ControlLoop& loop, const PlanRequester* requester) const;
 
  private:
   const model::RobotModel& robot_;
@@ -111,6 +117,9 @@ class RunRecorder {
   double takeoff_truth_x_ = std::numeric_limits<double>::quiet_NaN();
   double pos_err2_ = 0.0, vel_err2_ = 0.0;
   long err_n_ = 0;
+  bool keep_frames_ = false;
+  std::vector<viz::Frame> frames_;
+  double frames_takeoff_com_x_ = std::numeric_limits<double>::quiet_NaN();  // CoM x at take-off
 };
 
 }  // namespace wj::robot_client
