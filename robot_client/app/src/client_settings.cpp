@@ -42,6 +42,10 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.target_pitch_change_rad, -7.0, 7.0, p + "target.pitch_change_rad");
   inRange(s.plan_timeout_s, 0.05, 60.0, p + "plan_timeout_s");
   inRange(s.duration_s, 1.0, 600.0, p + "duration_s");
+  if (s.actuators_file.empty())
+    throw std::invalid_argument("robot client settings: " + p +
+                                "actuators_file must name a file in the models folder (e.g. "
+                                "actuators.yaml)");
   if (s.has_wall && s.run_up_speed_m_s > 0.0) {
     // The run-up must fit before the decision point.
     const double run_up = s.run_up_speed_m_s * s.run_up_speed_m_s / (2.0 * s.acceleration_m_s2);
@@ -91,6 +95,7 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   target.finish();
   s.plan_timeout_s = m.number("plan_timeout_s");
   s.duration_s = m.number("duration_s");
+  if (m.has("actuators_file")) s.actuators_file = m.text("actuators_file");
   m.finish();
   return s;
 }

@@ -98,6 +98,10 @@ struct ScenarioSettings {
   planner::TakeoffMode mode = planner::TakeoffMode::Simultaneous;
   double plan_timeout_s = 3.0;  ///< standing jumps: no plan by then -> no jump [s]
   double duration_s = 12.0;     ///< end of the run [s]
+  /// Actuator file of the robot in this scenario (models folder; optional key, default the
+  /// real robot's). The simulated robot and the planning service must use the same one: the
+  /// service's `actuators_file` (docs/backflip.md).
+  std::string actuators_file = "actuators.yaml";
 };
 
 /// Everything in config/robot_client.yaml.
