@@ -29,6 +29,10 @@ void JumpTask::validate() const {
   }
 }
 
+bool JumpTask::isBackflip() const {
+  return mode == TakeoffMode::TwoStep && target.pitch_change > M_PI;
+}
+
 void InitialState::validate(const model::RobotModel& robot) const {
   requireRange("initial.v0", v0, -1.0, 4.0);
   requireRange("initial.pitch", pitch, -0.5, 0.5);

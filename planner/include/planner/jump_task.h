@@ -32,6 +32,9 @@ struct JumpTask {
 
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate() const;
+  /// A backflip: a two-step take-off whose target pitch change is more than half a turn
+  /// nose-up. Its search uses the flip box of the settings (`flip.*`, docs/backflip.md).
+  bool isBackflip() const;
 };
 
 /// The measured state at the start of the take-off. The wheels are on flat ground; the CoM
