@@ -48,6 +48,25 @@ json outcomeJson(const pl::JumpOutcome& o) {
   return j;
 }
 
+// The plan's dense samples, for comparison with the telemetry CSV (same joint order).
+void writePlanCsv(const std::filesystem::path& path, const pl::JumpPlan& plan) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  out << "t,x,z,pitch,vx,vz,pitch_rate";
+  for (const char* what : {"q", "qd", "tau"})
+    for (int j = 0; j < wj::model::kNumJoints; ++j) out << ',' << what << j;
+  out << '\n';
+  out.precision(10);
+  for (int k = 0; k < plan.numSamples(); ++k) {
+    const pl::PlanarState& c = plan.centroidal[k];
+    out << k * plan.dt << ',' << c.x << ',' << c.z << ',' << c.pitch << ',' << c.vx << ',' << c.vz
+        << ',' << c.pitch_rate;
+    for (const auto* m : {&plan.q, &plan.qd, &plan.tau})
+      for (int j = 0; j < wj::model::kNumJoints; ++j) out << ',' << (*m)(k, j);
+    out << '\n';
+  }
+}
+
 // Writes the planned CoM height and the figure script, then runs gnuplot.
 void plot(const std::filesystem::path& png, const std::filesystem::path& csv,
           const pl::JumpPlan& plan, const wj::model::RobotModel& robot) {
@@ -172,7 +191,7 @@ double predictedTouchdownWheelGap(const wj::model::RobotModel& robot, const pl::
 
 int main(int argc, char** argv) {
   CLI::App app{"Plans a jump and verifies it in the Simbody simulation."};
-  std::string task = "forward", csv_path, plot_path, planner_config, sim_config;
+  std::string task = "forward", csv_path, plan_csv_path, plot_path, planner_config, sim_config;
   std::string actuators = wj::model::kDefaultActuatorsFile;
   std::optional<double> v0;
   std::uint64_t seed = 1;
@@ -188,6 +207,9 @@ int main(int argc, char** argv) {
                  "path, e.g. actuators-57nm.yaml");
   app.add_option("--sim-config", sim_config, "simulation settings YAML (sim/config layout)");
   app.add_option("--csv", csv_path, "write telemetry CSV here");
+  app.add_option("--plan-csv", plan_csv_path,
+                 "write the plan's dense samples here (t, CoM x z pitch vx vz pitch_rate, q, qd, "
+                 "tau in the telemetry's joint order)");
   app.add_option("--plot", plot_path, "write a PNG figure here (gnuplot)");
   app.add_flag("--json", json_out, "print JSON");
   CLI11_PARSE(app, argc, argv);
@@ -213,6 +235,7 @@ int main(int argc, char** argv) {
                                            sc.task.obstacle->height);
     sm::TelemetryRecorder recorder;
     const sm::VerificationReport v = verifier.verify(r.plan, scenario, recorder.callback());
+    if (!plan_csv_path.empty()) writePlanCsv(plan_csv_path, r.plan);
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";
     if (!csv_path.empty()) {
       std::ofstream out(csv_path);
