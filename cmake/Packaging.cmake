@@ -35,6 +35,7 @@ endfunction()
 
 # --- wheeljump-common
 install(FILES ${WJ_MODELS_DIR}/wheeljump.urdf ${WJ_MODELS_DIR}/actuators.yaml
+              ${WJ_MODELS_DIR}/actuators-57nm.yaml
         DESTINATION ${CMAKE_INSTALL_DATADIR}/wheeljump/models COMPONENT common)
 install(PROGRAMS ${WJ_DEPLOY_DIR}/wheeljump-profile DESTINATION ${CMAKE_INSTALL_BINDIR}
         COMPONENT common)

@@ -36,6 +36,7 @@ int main(int argc, char** argv) {
   using namespace wj::planner;
   CLI::App app{"Plans a jump of the wheeled-legged robot (DE over a planar rigid body + polish)."};
   std::string task_name, target_text, event_text = "apex", obstacle_text, config, mode_text;
+  std::string actuators = wj::model::kDefaultActuatorsFile;
   std::optional<double> v0;
   std::uint64_t seed = 1;
   int threads = 2;
@@ -52,6 +53,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-evals", max_evals, "DE evaluation budget")
       ->check(CLI::Range(100, 10000000));
   app.add_option("--config", config, "planner settings YAML (defaults if omitted)");
+  app.add_option("--actuators", actuators,
+                 "actuator file in the models folder (or a path), e.g. actuators-57nm.yaml");
   app.add_flag("--no-polish", no_polish, "skip the polish (polish.solver: sqp or ipopt)");
   app.add_flag("--json", json, "print JSON");
   app.add_flag("--log", log, "add the DE's per-generation log (last attempt) to the output");
@@ -60,7 +63,7 @@ int main(int argc, char** argv) {
   try {
     PlannerSettings settings =
         config.empty() ? PlannerSettings{} : PlannerSettings::fromYaml(config);
-    const JumpPlanner planner(wj::model::RobotModel::loadDefault(), settings);
+    const JumpPlanner planner(wj::model::RobotModel::loadDefault(actuators), settings);
     Scenario sc;
     if (!task_name.empty()) {
       sc = makePreset(planner, task_name, v0);

@@ -1240,6 +1240,13 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
     set(kTakeoffDpitch, s.two_step_takeoff_dpitch_rad);
     set(kTakeoffRate, s.two_step_takeoff_pitch_rate_rad_s);
   }
+  if (task_.isBackflip()) {  // the flip box (planner_settings.h, docs/backflip.md)
+    set(kT1, s.flip_t1_s);
+    set(kT2MinusT1, s.flip_t2_minus_t1_s);
+    set(kTakeoffDpitch, s.flip_takeoff_dpitch_rad);
+    set(kTakeoffRate, s.flip_takeoff_pitch_rate_rad_s);
+    set(kTakeoffVz, s.flip_takeoff_vz_m_s);
+  }
   per_contact_sample_ = 2 * 15 + 1 + (task_.obstacle ? 1 : 0);
   per_flight_sample_ = 1 + (task_.obstacle ? 1 : 0);
   num_contact_samples_ =

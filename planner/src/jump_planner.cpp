@@ -138,6 +138,15 @@ Eigen::MatrixXd JumpPlanner::warmCloud(const JumpModel& model, const Eigen::Matr
   return out;
 }
 
+Eigen::MatrixXd JumpPlanner::initialGuesses(const JumpTask& task,
+                                            const PlanOptions& options) const {
+  if (options.warm_start.cols() > 0 || !task.isBackflip() || settings_.flip_initial_guess.empty())
+    return options.warm_start;
+  // A cold backflip: the flip's shape (settings.flip_initial_guess) starts the search.
+  return Eigen::Map<const Eigen::VectorXd>(settings_.flip_initial_guess.data(),
+                                           static_cast<Eigen::Index>(kNumDecision));
+}
+
 JumpPlanner::JumpPlanner(model::RobotModel robot, PlannerSettings settings)
     : robot_(std::move(robot)), settings_(std::move(settings)) {
   settings_.validate();
@@ -212,8 +221,8 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   {
     de::Settings first = des;
     first.max_evaluations = std::min(attempt_budget, total_budget);
-    r.de = de::Solver(first).solve(problem, warmCloud(model, options.warm_start, des.seed),
-                                   options.cancel);
+    r.de = de::Solver(first).solve(
+        problem, warmCloud(model, initialGuesses(task, options), des.seed), options.cancel);
     attempt_bests.emplace_back(r.de.best.cost, r.de.best_x);
   }
   // A restart is for an attempt trapped in a penalty basin: its best violates a constraint.

@@ -37,6 +37,10 @@ bool JumpTask::landsOnObstacle() const {
          target.dx < obstacle->x_max;
 }
 
+bool JumpTask::isBackflip() const {
+  return mode == TakeoffMode::TwoStep && target.pitch_change > M_PI;
+}
+
 void InitialState::validate(const model::RobotModel& robot) const {
   requireRange("initial.v0", v0, -1.0, 4.0);
   requireRange("initial.pitch", pitch, -0.5, 0.5);

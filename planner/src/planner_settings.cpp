@@ -152,8 +152,25 @@ void PlannerSettings::validate() const {
         {takeoff_vz_m_s, "bounds.takeoff_vz_m_s"},
         {takeoff_pitch_rate_rad_s, "bounds.takeoff_pitch_rate_rad_s"},
         {two_step_takeoff_dpitch_rad, "bounds.two_step_takeoff_dpitch_rad"},
-        {two_step_takeoff_pitch_rate_rad_s, "bounds.two_step_takeoff_pitch_rate_rad_s"}})
+        {two_step_takeoff_pitch_rate_rad_s, "bounds.two_step_takeoff_pitch_rate_rad_s"},
+        {flip_t1_s, "flip.t1_s"},
+        {flip_t2_minus_t1_s, "flip.t2_minus_t1_s"},
+        {flip_takeoff_dpitch_rad, "flip.takeoff_dpitch_rad"},
+        {flip_takeoff_pitch_rate_rad_s, "flip.takeoff_pitch_rate_rad_s"},
+        {flip_takeoff_vz_m_s, "flip.takeoff_vz_m_s"}})
     checkInterval(b, name);
+  check(flip_t1_s[0] > 0.01, "flip.t1_s[0]", "> 0.01 s", flip_t1_s[0]);
+  check(flip_t2_minus_t1_s[0] > 0.01, "flip.t2_minus_t1_s[0]", "> 0.01 s", flip_t2_minus_t1_s[0]);
+  check(flip_takeoff_vz_m_s[0] > 0, "flip.takeoff_vz_m_s[0]",
+        "> 0 (the robot must leave the ground)", flip_takeoff_vz_m_s[0]);
+  if (!flip_initial_guess.empty() && flip_initial_guess.size() != 11)
+    throw std::invalid_argument(
+        "planner settings: flip.initial_guess must be empty or have 11 entries (the search "
+        "vector), got " +
+        std::to_string(flip_initial_guess.size()));
+  for (std::size_t i = 0; i < flip_initial_guess.size(); ++i)
+    check(std::isfinite(flip_initial_guess[i]), "flip.initial_guess[" + std::to_string(i) + "]",
+          "finite", flip_initial_guess[i]);
   for (int i = 0; i < kNumConstraintClasses; ++i)
     check(class_weight[i] > 0,
           std::string("cost.class_weight.") + toString(static_cast<ConstraintClass>(i)), "> 0",
@@ -310,6 +327,21 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"two_step_takeoff_dpitch_rad", interval(s.two_step_takeoff_dpitch_rad)},
                       {"two_step_takeoff_pitch_rate_rad_s",
                        interval(s.two_step_takeoff_pitch_rate_rad_s)}});
+       }},
+      {"flip",
+       [&](const YAML::Node& n) {
+         readSection(n, "flip",
+                     {{"t1_s", interval(s.flip_t1_s)},
+                      {"t2_minus_t1_s", interval(s.flip_t2_minus_t1_s)},
+                      {"takeoff_dpitch_rad", interval(s.flip_takeoff_dpitch_rad)},
+                      {"takeoff_pitch_rate_rad_s", interval(s.flip_takeoff_pitch_rate_rad_s)},
+                      {"takeoff_vz_m_s", interval(s.flip_takeoff_vz_m_s)},
+                      {"initial_guess", [&](const YAML::Node& g) {
+                         if (!g.IsSequence())
+                           throw YAML::Exception(g.Mark(), "expected a list of 11 numbers or []");
+                         s.flip_initial_guess.clear();
+                         for (const auto& v : g) s.flip_initial_guess.push_back(v.as<double>());
+                       }}});
        }},
       {"cost",
        [&](const YAML::Node& n) {

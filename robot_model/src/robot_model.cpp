@@ -109,23 +109,66 @@ Leg parseLeg(const std::filesystem::path& file, const std::string& prefix) {
   fail(file, "leg '" + prefix + "' is not one of LF, RF, LH, RH");
 }
 
-// Reads the actuator table: a map from joint kind to {gear ratio, corner speed}. Fails on
-// unknown or missing keys, and on a joint kind listed twice or not at all.
-std::map<JointKind, std::pair<double, double>> loadActuatorTable(
-    const std::filesystem::path& file) {
+// What an actuator file says about one joint kind: gear ratio and corner speed, and the peak
+// torque when the file overrides the URDF's <limit effort> (0 = keep the URDF's).
+struct ActuatorEntry {
+  double gear_ratio = 0.0;
+  double corner_speed_rad_s = 0.0;
+  double peak_torque_override_nm = 0.0;
+};
+
+// Largest peak torque an actuator file may set [Nm]: ten times the paper's 42 Nm, far above any
+// quasi-direct-drive leg actuator of this size; a larger figure is a typing error.
+constexpr double kMaxPeakTorqueOverrideNm = 420.0;
+
+// Reads `peak_torque_override_nm`: a map from joint kind to the peak output torque [Nm] that
+// replaces the URDF's <limit effort> for every joint of that kind (what-if robots with stronger
+// motors, e.g. models/actuators-57nm.yaml). Fails on an unknown kind, a kind listed twice, a
+// value that is not a number in (0, 420] Nm.
+void readPeakTorqueOverrides(const std::filesystem::path& file, const YAML::Node& node,
+                             std::map<JointKind, double>& overrides) {
+  if (!node.IsMap())
+    fail(file,
+         "peak_torque_override_nm must be a map from joint kind (HAA, HFE, KFE, WHEEL) to Nm");
+  for (const auto& kv : node) {
+    const JointKind kind = parseKind(file, kv.first.as<std::string>());
+    if (overrides.count(kind))
+      fail(file,
+           "peak_torque_override_nm: joint kind " + std::string(toString(kind)) + " listed twice");
+    double value = 0.0;
+    try {
+      value = kv.second.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(file, "peak_torque_override_nm." + std::string(toString(kind)) + " must be a number");
+    }
+    if (!std::isfinite(value) || !(value > 0.0) || value > kMaxPeakTorqueOverrideNm) {
+      std::ostringstream msg;
+      msg << "peak_torque_override_nm." << toString(kind) << " must lie in (0, "
+          << kMaxPeakTorqueOverrideNm << "] Nm, got " << value;
+      fail(file, msg.str());
+    }
+    overrides[kind] = value;
+  }
+}
+
+// Reads the actuator table: a map from joint kind to {gear ratio, corner speed, peak torque
+// override}. Fails on unknown or missing keys, and on a joint kind listed twice or not at all.
+std::map<JointKind, ActuatorEntry> loadActuatorTable(const std::filesystem::path& file) {
   YAML::Node root;
   try {
     root = YAML::LoadFile(file.string());
   } catch (const std::exception& e) {
     fail(file, std::string("cannot parse YAML: ") + e.what());
   }
+  if (!root.IsMap()) fail(file, "expected a map with actuator_types");
   for (const auto& kv : root) {
     const auto key = kv.first.as<std::string>();
-    if (key != "actuator_types") fail(file, "unknown key '" + key + "' (allowed: actuator_types)");
+    if (key != "actuator_types" && key != "peak_torque_override_nm")
+      fail(file, "unknown key '" + key + "' (allowed: actuator_types, peak_torque_override_nm)");
   }
   if (!root["actuator_types"] || !root["actuator_types"].IsMap())
     fail(file, "missing map 'actuator_types'");
-  std::map<JointKind, std::pair<double, double>> table;
+  std::map<JointKind, ActuatorEntry> table;
   for (const auto& type : root["actuator_types"]) {
     const auto type_name = type.first.as<std::string>();
     const YAML::Node& node = type.second;
@@ -144,12 +187,17 @@ std::map<JointKind, std::pair<double, double>> loadActuatorTable(
       const JointKind kind = parseKind(file, kind_node.as<std::string>());
       if (table.count(kind))
         fail(file, "joint kind " + std::string(toString(kind)) + " listed in two actuator types");
-      table[kind] = {gear, corner};
+      table[kind] = {gear, corner, 0.0};
     }
   }
   for (const JointKind kind : kJointKinds)
     if (!table.count(kind))
       fail(file, "joint kind " + std::string(toString(kind)) + " has no actuator type");
+  if (const YAML::Node overrides_node = root["peak_torque_override_nm"]) {
+    std::map<JointKind, double> overrides;
+    readPeakTorqueOverrides(file, overrides_node, overrides);
+    for (const auto& [kind, nm] : overrides) table[kind].peak_torque_override_nm = nm;
+  }
   return table;
 }
 
@@ -208,9 +256,20 @@ std::filesystem::path RobotModel::defaultModelsDir() {
   return WJ_INSTALLED_MODELS_DIR;
 }
 
-RobotModel RobotModel::loadDefault() {
+RobotModel RobotModel::loadDefault(const std::filesystem::path& actuators_file) {
   const auto dir = defaultModelsDir();
-  return load(dir / "wheeljump.urdf", dir / "actuators.yaml");
+  if (actuators_file.empty())
+    throw std::invalid_argument("robot model: the actuator file name is empty (default: " +
+                                std::string(kDefaultActuatorsFile) + ")");
+  const std::filesystem::path actuators =
+      actuators_file.is_absolute() ? actuators_file : dir / actuators_file;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(actuators, ec))
+    throw std::invalid_argument("robot model: actuator file '" + actuators_file.string() +
+                                "' not found (looked for " + actuators.string() +
+                                "; a relative name is read from the models folder " + dir.string() +
+                                ")");
+  return load(dir / "wheeljump.urdf", actuators);
 }
 
 RobotModel RobotModel::load(const std::filesystem::path& urdf_path,
@@ -267,12 +326,15 @@ RobotModel RobotModel::load(const std::filesystem::path& urdf_path,
       j.upper_rad = j.continuous ? std::numeric_limits<double>::infinity() : uj->limits->upper;
       if (!j.continuous && !(j.lower_rad < j.upper_rad))
         fail(urdf_path, uj->name + ": lower limit must be below upper limit");
-      const auto [gear, corner] = actuator_table.at(kind);
-      j.actuator = ActuatorEnvelope{uj->limits->effort, corner, uj->limits->velocity, gear};
+      const ActuatorEntry& entry = actuator_table.at(kind);
+      const double peak =
+          entry.peak_torque_override_nm > 0.0 ? entry.peak_torque_override_nm : uj->limits->effort;
+      j.actuator =
+          ActuatorEnvelope{peak, entry.corner_speed_rad_s, uj->limits->velocity, entry.gear_ratio};
       try {
         j.actuator.validate(j.name);
       } catch (const std::invalid_argument& e) {
-        fail(urdf_path, e.what());
+        fail(entry.peak_torque_override_nm > 0.0 ? actuators_yaml : urdf_path, e.what());
       }
 
       const urdf::LinkConstSharedPtr child = urdf_model->getLink(uj->child_link_name);
@@ -325,6 +387,24 @@ RobotModel RobotModel::load(const std::filesystem::path& urdf_path,
   }
 
   for (const auto& link : m.links_) m.total_mass_ += link.inertia.mass;
+  return m;
+}
+
+RobotModel RobotModel::withPeakTorque(JointKind kind, double peak_torque_nm) const {
+  if (!std::isfinite(peak_torque_nm) || !(peak_torque_nm > 0.0) ||
+      peak_torque_nm > kMaxPeakTorqueOverrideNm) {
+    std::ostringstream msg;
+    msg << "RobotModel::withPeakTorque: the peak torque of " << toString(kind)
+        << " must lie in (0, " << kMaxPeakTorqueOverrideNm << "] Nm, got " << peak_torque_nm;
+    throw std::invalid_argument(msg.str());
+  }
+  RobotModel m = *this;
+  for (JointSpec& j : m.joints_)
+    if (j.kind == kind) j.actuator.peak_torque_nm = peak_torque_nm;
+  std::ostringstream tag;
+  tag.precision(17);
+  tag << "peak_torque " << toString(kind) << " " << peak_torque_nm;
+  m.content_hash_ = fnv1a(tag.str(), content_hash_);
   return m;
 }
 

@@ -46,7 +46,7 @@ int main(int argc, char** argv) {
     try {
       const auto config = wj::server::ServerConfig::fromYamlFile(check_path);
       if (!config.models_dir.empty()) ::setenv("WJ_MODELS_DIR", config.models_dir.c_str(), 1);
-      const auto robot = wj::model::RobotModel::loadDefault();
+      const auto robot = wj::model::RobotModel::loadDefault(config.actuators_file);
       if (!config.planner.settings_file.empty())
         (void)wj::planner::PlannerSettings::fromYaml(config.planner.settings_file);
       std::cout << check_path << ": ok (listen " << config.listen << ", tls "

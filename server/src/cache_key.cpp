@@ -176,9 +176,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // (5: the stall count's fix and the closest approach for out-of-reach targets; 6: the QP's
   // Newton matrix built without the bound rows, which changes its last bits; 7: the QP's rows
   // screened against the step box; 8: a touchdown target over the obstacle lands on it, which
-  // the probes below, over the ground beyond their box, do not see), which the probes below,
-  // run without the polish, do not see.
-  w.put(std::uint32_t{8});
+  // the probes below, over the ground beyond their box, do not see; 9: the backflip's box and
+  // initial guess below), which the probes below, run without the polish, do not see.
+  w.put(std::uint32_t{9});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -205,6 +205,14 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.putBool(s.polish_between_attempts);
   w.putDouble(s.polish_backoff);
   w.put(static_cast<int>(s.polish_solver));
+  // The backflip's search box and initial guess (JumpTask::isBackflip(); no probe is a flip).
+  for (const auto& b : {s.flip_t1_s, s.flip_t2_minus_t1_s, s.flip_takeoff_dpitch_rad,
+                        s.flip_takeoff_pitch_rate_rad_s, s.flip_takeoff_vz_m_s}) {
+    w.putDouble(b[0]);
+    w.putDouble(b[1]);
+  }
+  w.put(static_cast<std::uint64_t>(s.flip_initial_guess.size()));
+  for (const double v : s.flip_initial_guess) w.putDouble(v);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

@@ -166,6 +166,8 @@ void ServerConfig::validate() const {
   require(log_level == "trace" || log_level == "debug" || log_level == "info" ||
               log_level == "warn" || log_level == "error",
           "log_level", "one of trace, debug, info, warn, error", 0.0);
+  require(!actuators_file.empty() && actuators_file.find('\n') == std::string::npos,
+          "actuators_file", "a file name in the models folder (e.g. actuators.yaml)", 0.0);
   require(shutdown_grace_s >= 0 && shutdown_grace_s <= 600, "shutdown_grace_s", "in [0, 600] s",
           shutdown_grace_s);
   require(planner.de_threads >= 1 && planner.de_threads <= 64, "planner.de_threads", "in [1, 64]",
@@ -308,6 +310,8 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
   MapReader top(root, "", origin);
   top.read("listen", c.listen);
   top.read("models_dir", c.models_dir);
+  // Optional, so that configurations written before it stay valid.
+  if (top.has("actuators_file")) top.read("actuators_file", c.actuators_file);
   top.read("log_level", c.log_level);
   top.read("shutdown_grace_s", c.shutdown_grace_s);
   top.section("planner", [&](MapReader& r) {
@@ -427,6 +431,7 @@ std::string ServerConfig::toYaml() const {
   const auto flag = [](bool v) { return v ? "true" : "false"; };
   o << "listen: " << quote(listen) << "\n";
   o << "models_dir: " << quote(models_dir) << "\n";
+  o << "actuators_file: " << quote(actuators_file) << "\n";
   o << "log_level: " << log_level << "\n";
   o << "shutdown_grace_s: " << num(shutdown_grace_s) << "\n";
   o << "planner:\n"

@@ -50,7 +50,7 @@ std::string hostOf(const std::string& listen) {
 PlannerServer::PlannerServer(const ServerConfig& config) : config_(config) {
   config_.validate();
   if (!config_.models_dir.empty()) ::setenv("WJ_MODELS_DIR", config_.models_dir.c_str(), 1);
-  model::RobotModel robot = model::RobotModel::loadDefault();
+  model::RobotModel robot = model::RobotModel::loadDefault(config_.actuators_file);
   planner::PlannerSettings settings =
       config_.planner.settings_file.empty()
           ? planner::PlannerSettings{}

@@ -51,6 +51,25 @@ json outcomeJson(const pl::JumpOutcome& o) {
   return j;
 }
 
+// The plan's dense samples, for comparison with the telemetry CSV (same joint order).
+void writePlanCsv(const std::filesystem::path& path, const pl::JumpPlan& plan) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  out << "t,x,z,pitch,vx,vz,pitch_rate";
+  for (const char* what : {"q", "qd", "tau"})
+    for (int j = 0; j < wj::model::kNumJoints; ++j) out << ',' << what << j;
+  out << '\n';
+  out.precision(10);
+  for (int k = 0; k < plan.numSamples(); ++k) {
+    const pl::PlanarState& c = plan.centroidal[k];
+    out << k * plan.dt << ',' << c.x << ',' << c.z << ',' << c.pitch << ',' << c.vx << ',' << c.vz
+        << ',' << c.pitch_rate;
+    for (const auto* m : {&plan.q, &plan.qd, &plan.tau})
+      for (int j = 0; j < wj::model::kNumJoints; ++j) out << ',' << (*m)(k, j);
+    out << '\n';
+  }
+}
+
 // Writes the planned CoM height and the figure script, then runs gnuplot.
 void plot(const std::filesystem::path& png, const std::filesystem::path& csv,
           const pl::JumpPlan& plan, const wj::model::RobotModel& robot) {
@@ -101,6 +120,56 @@ void plot(const std::filesystem::path& png, const std::filesystem::path& csv,
   text.replace(text.find(needle), needle.size(),
                "'< tr \" \" \",\" < " + planned.string() + "' using 1:2");
   std::ofstream(script) << text;
+  const std::string cmd = "gnuplot '" + script.string() + "'";
+  if (std::system(cmd.c_str()) != 0)
+    throw std::runtime_error("gnuplot failed on " + script.string());
+}
+
+// The paper's backflip figure: the hind knee's (LH_KFE) joint velocity and torque over the
+// take-off, with its limits: the no-load speed, the peak torque and the torque-speed envelope
+// at the measured speed (dashed), and the planned torque. Written as `<png>` by gnuplot.
+void plotKnee(const std::filesystem::path& png, const std::filesystem::path& csv,
+              const pl::JumpPlan& plan, const wj::model::RobotModel& robot) {
+  const int knee = wj::model::jointIndex(Leg::LH, JointKind::KFE);
+  const auto& a = robot.joints()[knee].actuator;
+  const std::filesystem::path planned = png.string() + ".plan.dat";
+  {
+    std::ofstream out(planned);
+    for (int k = 0; k < plan.numSamples() && k * plan.dt <= plan.t2; ++k)
+      out << k * plan.dt << "," << plan.qd(k, knee) << "," << plan.tau(k, knee) << "\n";
+  }
+  // Telemetry columns (1-based): qd_* 38..53, tau_* 54..69, jointIndex order.
+  const int qd_col = 38 + knee, tau_col = 54 + knee;
+  std::ostringstream gp;
+  gp << "set terminal pngcairo size 1100,800 font ',10'\n"
+     << "set output '" << png.string() << "'\n"
+     << "set datafile separator ','\nset key outside right\nset grid\n"
+     << "set xrange [0:" << plan.t2 + 0.05 << "]\n"
+     << "peak = " << a.peak_torque_nm << "\ncorner = " << a.corner_speed_rad_s
+     << "\nnoload = " << a.no_load_speed_rad_s << "\n"
+     << "env(w) = abs(w) <= corner ? peak : (abs(w) >= noload ? 0 : peak * (noload - abs(w)) / "
+        "(noload - corner))\n"
+     << "set multiplot layout 2,1 title 'hind knee (LH\\_KFE) over the take-off: peak "
+     << a.peak_torque_nm << " Nm, no-load " << a.no_load_speed_rad_s << " rad/s'\n"
+     << "set arrow from " << plan.t1 << ", graph 0 to " << plan.t1
+     << ", graph 1 nohead dt 3 lc 'gray'\n"
+     << "set arrow from " << plan.t2 << ", graph 0 to " << plan.t2
+     << ", graph 1 nohead dt 3 lc 'gray'\n"
+     << "set ylabel 'joint velocity [rad/s]'\n"
+     << "plot '" << csv.string() << "' every ::1 using 1:" << qd_col << " w l lw 2 t 'simulated', '"
+     << planned.string()
+     << "' using 1:2 w l dt 4 t 'planned', noload dt 2 lc 'red' t 'no-load speed', -noload dt 2 "
+        "lc 'red' notitle\n"
+     << "set ylabel 'joint torque [Nm]'\nset xlabel 'time [s] (dotted: t1, t2 of the plan)'\n"
+     << "plot '" << csv.string() << "' every ::1 using 1:" << tau_col
+     << " w l lw 2 t 'simulated', '" << planned.string() << "' using 1:3 w l dt 4 t 'planned', '"
+     << csv.string() << "' every ::1 using 1:(env($" << qd_col
+     << ")) w l dt 2 lc 'red' t 'envelope at the speed', '' every ::1 using 1:(-env($" << qd_col
+     << ")) w l dt 2 lc 'red' notitle, peak dt 3 lc 'black' t 'peak torque', -peak dt 3 "
+        "lc 'black' notitle\n"
+     << "unset multiplot\n";
+  const std::filesystem::path script = png.string() + ".gp";
+  std::ofstream(script) << gp.str();
   const std::string cmd = "gnuplot '" + script.string() + "'";
   if (std::system(cmd.c_str()) != 0)
     throw std::runtime_error("gnuplot failed on " + script.string());
@@ -167,7 +236,8 @@ void writePictures(const PictureFiles& files, const wj::model::RobotModel& robot
 
 int main(int argc, char** argv) {
   CLI::App app{"Plans a jump and verifies it in the Simbody simulation."};
-  std::string task = "forward", csv_path, plot_path, planner_config, sim_config;
+  std::string task = "forward", csv_path, plan_csv_path, plot_path, planner_config, sim_config;
+  std::string actuators = wj::model::kDefaultActuatorsFile;
   std::optional<double> v0;
   std::uint64_t seed = 1;
   int threads = 2;
@@ -178,12 +248,18 @@ int main(int argc, char** argv) {
   app.add_option("--seed", seed, "planner seed");
   app.add_option("--threads", threads, "planner threads")->check(CLI::Range(1, 64));
   app.add_option("--config", planner_config, "planner settings YAML");
+  app.add_option("--actuators", actuators,
+                 "actuator file of the robot (planner and simulation), in the models folder or a "
+                 "path, e.g. actuators-57nm.yaml");
   app.add_option("--sim-config", sim_config, "simulation settings YAML (sim/config layout)");
   std::string plant_path;
   app.add_option("--plant", plant_path,
                  "plant file (YAML, every key optional): the simulated robot differs from the "
                  "planner's model (docs/sim.md, 'Plant')");
   app.add_option("--csv", csv_path, "write telemetry CSV here");
+  app.add_option("--plan-csv", plan_csv_path,
+                 "write the plan's dense samples here (t, CoM x z pitch vx vz pitch_rate, q, qd, "
+                 "tau in the telemetry's joint order)");
   app.add_option("--plot", plot_path, "write a PNG figure here (gnuplot)");
   app.add_option("--snapshots", pictures.strip,
                  "write a snapshot strip here (PNG: the robot from take-off to landing)");
@@ -192,7 +268,7 @@ int main(int argc, char** argv) {
   app.add_flag("--json", json_out, "print JSON");
   CLI11_PARSE(app, argc, argv);
   try {
-    const auto robot = wj::model::RobotModel::loadDefault();
+    const auto robot = wj::model::RobotModel::loadDefault(actuators);
     const pl::JumpPlanner planner(robot, planner_config.empty()
                                              ? pl::PlannerSettings{}
                                              : pl::PlannerSettings::fromYaml(planner_config));
@@ -219,13 +295,19 @@ int main(int argc, char** argv) {
     }
     sm::TelemetryRecorder recorder;
     const sm::VerificationReport v = verifier.verify(r.plan, scenario, recorder.callback());
+    if (!plan_csv_path.empty()) writePlanCsv(plan_csv_path, r.plan);
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";
     if (!csv_path.empty()) {
       std::ofstream out(csv_path);
       if (!out) throw std::runtime_error("cannot write " + csv_path);
       recorder.writeCsv(out);
     }
-    if (!plot_path.empty()) plot(plot_path, csv_path, r.plan, robot);
+    if (!plot_path.empty()) {
+      if (sc.task.isBackflip())
+        plotKnee(plot_path, csv_path, r.plan, robot);
+      else
+        plot(plot_path, csv_path, r.plan, robot);
+    }
     if (pictures.any())
       writePictures(
           pictures, robot,
@@ -265,6 +347,8 @@ int main(int argc, char** argv) {
           {"touchdown_pitch_error_rad", v.touchdown_pitch_error_rad},
           {"max_base_z_m", v.max_base_z_m},
           {"final_pitch_rad", v.final_pitch_rad},
+          {"final_rotation_rad", v.final_rotation_rad},
+          {"actuators_file", actuators},
           {"final_roll_rad", v.final_roll_rad},
           {"final_base_height_m", v.final_base_height_m},
           {"nominal_base_height_m", v.nominal_base_height_m}};
@@ -297,8 +381,10 @@ int main(int argc, char** argv) {
                 << "\n  simulated max |qd| / limit [rad/s]: haa " << sim_speed[0] << "/"
                 << limit_speed[0] << "  hfe " << sim_speed[1] << "/" << limit_speed[1] << "  kfe "
                 << sim_speed[2] << "/" << limit_speed[2] << "  wheel " << sim_speed[3] << "/"
-                << limit_speed[3] << "\n  verification: " << (v.passed ? "PASSED" : "FAILED")
-                << "\n";
+                << limit_speed[3] << "\n  robot: " << actuators << " (knee peak " << limit_torque[2]
+                << " Nm); rotation at touchdown " << s.touchdown.state.pitch << " rad, at the end "
+                << v.final_rotation_rad << " rad"
+                << "\n  verification: " << (v.passed ? "PASSED" : "FAILED") << "\n";
       for (const auto& reason : v.reasons) std::cout << "    - " << reason << "\n";
       if (!csv_path.empty()) std::cout << "  telemetry: " << csv_path << "\n";
       if (!plot_path.empty()) std::cout << "  figure: " << plot_path << "\n";

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "sim/verifier.h"
+
 namespace wj::sim {
 
 namespace {
@@ -47,6 +49,9 @@ void ExecutorSettings::validate() const {
   requirePositive(airborne_debounce_s, "airborne_debounce_s");
   requireNonNegative(max_flight_overrun_s, "max_flight_overrun_s");
   requireNonNegative(joint_limit_margin_rad, "joint_limit_margin_rad");
+  requireNonNegative(hind_pitch_kp, "hind_pitch_kp");
+  requireNonNegative(hind_pitch_kd, "hind_pitch_kd");
+  requireNonNegative(hind_pitch_max_nm, "hind_pitch_max_nm");
 }
 
 std::string checkPlan(const planner::JumpPlan& plan) {
@@ -81,6 +86,12 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
   const int k2 =
       std::clamp(static_cast<int>(std::lround(plan.t2 / plan.dt)), 0, plan.numSamples() - 1);
   wheel_speed_ = plan.centroidal[k2].vx / model.wheelRadius();
+  const int k_mid = std::clamp(static_cast<int>(std::lround(0.5 * (plan.t1 + plan.t2) / plan.dt)),
+                               0, plan.numSamples() - 1);
+  hind_only_ = plan.t2 - plan.t1 > 2.0 * plan.dt;
+  for (const model::Leg leg : {model::Leg::LF, model::Leg::RF})
+    for (const model::JointKind kind : model::kJointKinds)
+      hind_only_ = hind_only_ && plan.tau(k_mid, model::jointIndex(leg, kind)) == 0.0;
 }
 
 void PlanExecutor::sample(double t, model::JointCommands& out) const {
@@ -123,9 +134,15 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
     landing_start_ = t;
   }
 
+  const Eigen::Matrix3d R_WB = sensors.imu.q_WB.toRotationMatrix();
+  pitch_ = calcUnwrappedPitch(R_WB, have_pitch_ ? pitch_ : 0.0);
+  if (!have_pitch_) pitch0_ = pitch_;
+  have_pitch_ = true;
+
   switch (phase_) {
     case JumpPhase::Takeoff:
       sample(t, out);
+      if (hind_only_ && t >= plan_.t1) addHindPitchFeedback(t, R_WB * sensors.imu.omega_B, out);
       return;
     case JumpPhase::Flight: {
       // The plan's own flight references while they last (the planner moves the legs to
@@ -187,6 +204,20 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       return;
     }
   }
+}
+
+void PlanExecutor::addHindPitchFeedback(double t, const Eigen::Vector3d& omega_W,
+                                        model::JointCommands& out) const {
+  const int n = plan_.numSamples();
+  const int k = std::clamp(static_cast<int>(std::lround(t / plan_.dt)), 0, n - 1);
+  const planner::PlanarState& ref = plan_.centroidal[k];
+  const double e = ref.pitch - (pitch_ - pitch0_);
+  const double e_rate = ref.pitch_rate - (-omega_W.y());
+  const double max = settings_.hind_pitch_max_nm;
+  const double dtau =
+      std::clamp(settings_.hind_pitch_kp * e + settings_.hind_pitch_kd * e_rate, -max, max);
+  for (const model::Leg leg : {model::Leg::LH, model::Leg::RH})
+    out[model::jointIndex(leg, model::JointKind::Wheel)].tau_ff += dtau;
 }
 
 void PlanExecutor::blendToLanding(double t, model::JointCommands& out) const {

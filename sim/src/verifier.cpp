@@ -32,13 +32,6 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kPi = 3.14159265358979323846;
 
-// Nose-up pitch (rotation about -y of the base) in (-pi, pi], unwrapped to be continuous with
-// `previous`.
-double unwrappedPitch(const Eigen::Matrix3d& R_WB, double previous) {
-  const double raw = std::atan2(R_WB(2, 0), R_WB(0, 0));
-  return raw + 2.0 * kPi * std::round((previous - raw) / (2.0 * kPi));
-}
-
 double rollOf(const Eigen::Matrix3d& R_WB) {
   return std::atan2(R_WB(2, 1), R_WB(2, 2));
 }
@@ -275,7 +268,8 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
   auto recordFinalState = [&](const GroundTruth& g, double pitch_now) {
     r.final_time_s = g.t;
     r.final_base_height_m = calcTerrainDistance(scenario.terrain, g.X_WB.translation());
-    r.final_pitch_rad = pitch_now - slope;
+    r.final_rotation_rad = pitch_now - slope;
+    r.final_pitch_rad = foldAngle(pitch_now - slope);
     r.final_roll_rad = rollOf(g.X_WB.linear());
     r.final_angular_speed_rad_s = g.w_WB.norm();
   };
@@ -293,7 +287,7 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
     robot.read(sensors);
     robot.calcGroundTruth(gt, static_cast<bool>(telemetry));
     const double t = gt.t;
-    pitch = unwrappedPitch(gt.X_WB.linear(), pitch);
+    pitch = calcUnwrappedPitch(gt.X_WB.linear(), pitch);
     bool contact = false;
     for (const auto& w : gt.wheels) contact = contact || w.in_contact;
 
@@ -466,6 +460,16 @@ VerificationReport verify(const model::RobotModel& model, const VerifierSettings
                           const planner::JumpPlan& plan, const InitialState& initial,
                           const Scenario& scenario) {
   return Verifier(model, settings).verify(plan, initial, scenario);
+}
+
+double calcUnwrappedPitch(const Eigen::Matrix3d& R_WB, double previous) {
+  const double raw = std::atan2(R_WB(2, 0), R_WB(0, 0));
+  return raw + 2.0 * kPi * std::round((previous - raw) / (2.0 * kPi));
+}
+
+double foldAngle(double angle_rad) {
+  const double folded = angle_rad - 2.0 * kPi * std::round(angle_rad / (2.0 * kPi));
+  return folded <= -kPi ? folded + 2.0 * kPi : folded;
 }
 
 }  // namespace wj::sim

@@ -140,5 +140,81 @@ TEST(RobotModel, BadInputGivesClearErrors) {
   std::filesystem::remove_all(dir);
 }
 
+// The 57 Nm actuator file raises the knees' peak torque and nothing else: every other figure,
+// the envelope's corner and no-load speeds included, is the real robot's.
+TEST(RobotModel, PeakTorqueOverrideRaisesTheKneesOnly) {
+  const RobotModel base = loadModel();
+  const RobotModel strong =
+      RobotModel::load(kModels / "wheeljump.urdf", kModels / "actuators-57nm.yaml");
+  for (int i = 0; i < kNumJoints; ++i) {
+    const ActuatorEnvelope& a = base.joints()[i].actuator;
+    const ActuatorEnvelope& b = strong.joints()[i].actuator;
+    const bool knee = base.joints()[i].kind == JointKind::KFE;
+    EXPECT_DOUBLE_EQ(b.peak_torque_nm, knee ? 57.0 : a.peak_torque_nm) << base.joints()[i].name;
+    EXPECT_DOUBLE_EQ(b.corner_speed_rad_s, a.corner_speed_rad_s);
+    EXPECT_DOUBLE_EQ(b.no_load_speed_rad_s, a.no_load_speed_rad_s);
+    EXPECT_DOUBLE_EQ(b.gear_ratio, a.gear_ratio);
+  }
+  // Above the corner speed the envelope falls from the new peak to zero at the same no-load
+  // speed: at the midpoint, half of 57 Nm.
+  const ActuatorEnvelope& knee = strong.joint(Leg::LH, JointKind::KFE).actuator;
+  EXPECT_NEAR(knee.torqueLimit(0.5 * (knee.corner_speed_rad_s + knee.no_load_speed_rad_s)), 28.5,
+              1e-12);
+  EXPECT_NE(strong.contentHash(), base.contentHash());  // a cached plan is per robot
+  // Chosen by name in the models folder, as the configurations do.
+  EXPECT_DOUBLE_EQ(RobotModel::loadDefault("actuators-57nm.yaml")
+                       .joint(Leg::RF, JointKind::KFE)
+                       .actuator.peak_torque_nm,
+                   57.0);
+  EXPECT_THROW((void)RobotModel::loadDefault("actuators-none.yaml"), std::invalid_argument);
+  EXPECT_THROW((void)RobotModel::loadDefault(""), std::invalid_argument);
+  // The same robot made in code (the knee-torque sweep): same actuators, its own hash.
+  const RobotModel swept = base.withPeakTorque(JointKind::KFE, 57.0);
+  for (int i = 0; i < kNumJoints; ++i)
+    EXPECT_DOUBLE_EQ(swept.joints()[i].actuator.peak_torque_nm,
+                     strong.joints()[i].actuator.peak_torque_nm);
+  EXPECT_NE(swept.contentHash(), base.contentHash());
+  EXPECT_EQ(swept.contentHash(), base.withPeakTorque(JointKind::KFE, 57.0).contentHash());
+  EXPECT_THROW((void)base.withPeakTorque(JointKind::KFE, 0.0), std::invalid_argument);
+  EXPECT_THROW((void)base.withPeakTorque(JointKind::KFE, 421.0), std::invalid_argument);
+}
+
+// Every malformed override is refused with the file and the field named.
+TEST(RobotModel, PeakTorqueOverrideIsStrict) {
+  const auto dir = std::filesystem::temp_directory_path() / "wj_test_peak_override";
+  std::filesystem::create_directories(dir);
+  const std::string types =
+      "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n    gear_ratio: 9\n"
+      "    corner_speed_rad_s: 20\n  wheel:\n    joint_kinds: [WHEEL]\n    gear_ratio: 9\n"
+      "    corner_speed_rad_s: 20\n";
+  const auto expectError = [&](const std::string& overrides, const std::string& message) {
+    std::ofstream(dir / "a.yaml") << types << overrides;
+    try {
+      (void)RobotModel::load(kModels / "wheeljump.urdf", dir / "a.yaml");
+      ADD_FAILURE() << "accepted: " << overrides;
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("a.yaml"), std::string::npos) << e.what();
+    }
+  };
+  expectError("peak_torque_override_nm:\n  KNEE: 57\n", "joint kind 'KNEE' is not one of");
+  expectError("peak_torque_override_nm:\n  KFE: 0\n", "KFE must lie in (0, 420] Nm, got 0");
+  expectError("peak_torque_override_nm:\n  KFE: -5\n", "must lie in (0, 420] Nm");
+  expectError("peak_torque_override_nm:\n  KFE: 500\n", "must lie in (0, 420] Nm, got 500");
+  expectError("peak_torque_override_nm:\n  KFE: .nan\n", "must lie in (0, 420] Nm");
+  expectError("peak_torque_override_nm:\n  KFE: lots\n", "KFE must be a number");
+  expectError("peak_torque_override_nm:\n  KFE: 57\n  KFE: 58\n", "KFE listed twice");
+  expectError("peak_torque_override_nm: 57\n", "must be a map from joint kind");
+  expectError("peak_torque_overide_nm:\n  KFE: 57\n", "unknown key 'peak_torque_overide_nm'");
+  // A valid override applies to every joint of its kind, the URDF's figure to the others.
+  std::ofstream(dir / "ok.yaml") << types << "peak_torque_override_nm:\n  HFE: 50.5\n";
+  const RobotModel m = RobotModel::load(kModels / "wheeljump.urdf", dir / "ok.yaml");
+  for (const Leg leg : kLegs) {
+    EXPECT_DOUBLE_EQ(m.joint(leg, JointKind::HFE).actuator.peak_torque_nm, 50.5);
+    EXPECT_DOUBLE_EQ(m.joint(leg, JointKind::KFE).actuator.peak_torque_nm, 42.0);
+  }
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace wj::model

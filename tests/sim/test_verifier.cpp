@@ -10,6 +10,8 @@
 #include <sstream>
 #include <thread>
 
+#include <Eigen/Geometry>
+
 #include "sim/reference_plans.h"
 #include "sim/verifier.h"
 
@@ -282,6 +284,35 @@ TEST(FailureSet, SetOperationsAndNames) {
     names.insert(toString(static_cast<FailureReason>(i)));
   EXPECT_EQ(static_cast<int>(names.size()), kNumFailureReasons);
   EXPECT_EQ(names.count("?"), 0u);
+}
+
+// A full turn reads 2 pi (not 0) in the running pitch every event is measured with, through
+// the +-pi crossing where atan2 wraps, and the end-of-run upright check folds it back to 0.
+TEST(Verifier, PitchUnwrapsThroughAFullTurnAndFoldsForUpright) {
+  const auto R = [](double pitch) {  // nose-up pitch is a rotation about -y
+    return Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  };
+  double pitch = 0.0;
+  const int steps = 400;  // 2 pi in 400 steps of 0.0157 rad, with a little roll on the way
+  for (int k = 1; k <= steps; ++k) {
+    const double truth = 2.0 * M_PI * k / steps;
+    const Eigen::Matrix3d R_WB =
+        R(truth) * Eigen::AngleAxisd(0.02 * std::sin(truth), Eigen::Vector3d::UnitX());
+    pitch = calcUnwrappedPitch(R_WB, pitch);
+    ASSERT_NEAR(pitch, truth, 1e-9) << "step " << k;
+  }
+  EXPECT_NEAR(pitch, 2.0 * M_PI, 1e-9);
+  EXPECT_NEAR(foldAngle(pitch), 0.0, 1e-9);
+  EXPECT_NEAR(foldAngle(2.0 * M_PI + 0.2), 0.2, 1e-12);
+  EXPECT_NEAR(foldAngle(2.0 * M_PI - 0.2), -0.2, 1e-12);
+  EXPECT_NEAR(foldAngle(-2.0 * M_PI - 0.1), -0.1, 1e-12);
+  EXPECT_DOUBLE_EQ(foldAngle(M_PI), M_PI);  // (-pi, pi]
+  EXPECT_DOUBLE_EQ(foldAngle(-M_PI), M_PI);
+  EXPECT_NEAR(foldAngle(3.0 * M_PI), M_PI, 1e-12);
+  // Backwards through a turn as well (a front flip).
+  pitch = 0.0;
+  for (int k = 1; k <= steps; ++k) pitch = calcUnwrappedPitch(R(-2.0 * M_PI * k / steps), pitch);
+  EXPECT_NEAR(pitch, -2.0 * M_PI, 1e-9);
 }
 
 }  // namespace

@@ -105,6 +105,9 @@ class JumpPlanner {
   /// The warm start handed to the DE: the given points and warm_start_cloud perturbations.
   Eigen::MatrixXd warmCloud(const JumpModel& model, const Eigen::MatrixXd& warm,
                             std::uint64_t seed) const;
+  /// The points the first population starts from: the request's warm start, or for a cold
+  /// backflip the settings' flip_initial_guess (none if empty).
+  Eigen::MatrixXd initialGuesses(const JumpTask& task, const PlanOptions& options) const;
 
   model::RobotModel robot_;
   PlannerSettings settings_;

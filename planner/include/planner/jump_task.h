@@ -37,6 +37,9 @@ struct JumpTask {
   /// faces, instead of beyond the far face, and target.height is the CoM height above the
   /// take-off ground at touchdown (the box's height plus the standing height).
   bool landsOnObstacle() const;
+  /// A backflip: a two-step take-off whose target pitch change is more than half a turn
+  /// nose-up. Its search uses the flip box of the settings (`flip.*`, docs/backflip.md).
+  bool isBackflip() const;
 };
 
 /// The measured state at the start of the take-off. The wheels are on flat ground; the CoM

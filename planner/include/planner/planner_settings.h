@@ -5,6 +5,7 @@
 #include <array>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "planner/de/differential_evolution.h"
 
@@ -113,6 +114,24 @@ struct PlannerSettings {
   /// Two-step take-offs (flips) get wider pitch bounds than the simultaneous ones.
   std::array<double, 2> two_step_takeoff_dpitch_rad = {-1.5, 2.5};
   std::array<double, 2> two_step_takeoff_pitch_rate_rad_s = {-6.0, 14.0};
+
+  // --- backflips (JumpTask::isBackflip(); `flip:` in the YAML; docs/backflip.md). The flips
+  // the model has at the paper's 57 Nm knee lift off pitched up 2.6-2.8 rad after a 0.45 s push
+  // on the hind wheels alone, outside the two-step box above (t2 - t1 <= 0.35 s, pitch
+  // <= 2.5 rad); below 2 rad at lift-off no flip lands (the body is still upside down when the
+  // CoM comes down). These replace t1_s, t2_minus_t1_s, takeoff_vz_m_s and the two-step pitch
+  // bounds for a backflip.
+  std::array<double, 2> flip_t1_s = {0.08, 0.3};               ///< four-wheel push [s]
+  std::array<double, 2> flip_t2_minus_t1_s = {0.3, 0.8};       ///< hind-only push [s]
+  std::array<double, 2> flip_takeoff_dpitch_rad = {2.0, 3.2};  ///< pitch(t2) - pitch0
+  std::array<double, 2> flip_takeoff_pitch_rate_rad_s = {8.0, 16.0};
+  std::array<double, 2> flip_takeoff_vz_m_s = {1.5, 3.5};
+  /// A backflip's shape as a search vector u (JumpModel's variable order, kNumDecision
+  /// entries), entered into the DE's first population with the warm-start cloud when the
+  /// request brings no warm start of its own; empty = none. The default: 0.16 s on four wheels,
+  /// 0.46 s on the hind wheels to 2.6 rad nose-up, lift-off at 11.5 rad/s and 2 m/s upward.
+  std::vector<double> flip_initial_guess = {0.0,  0.02, 0.15, 0.05, 0.2, 2.6,
+                                            -1.3, 2.0,  11.5, 0.16, 0.46};
 
   // --- cost (paper Eq. 10): sum over violated classes W_n (10^(n+3) + 10^n sigma_n), plus the
   // target error and the energy.

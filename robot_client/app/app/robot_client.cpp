@@ -68,9 +68,9 @@ void writePictures(const Options& opt, const wj::model::RobotModel& robot,
 }
 
 int run(const Options& opt) {
-  const wj::model::RobotModel robot = wj::model::RobotModel::loadDefault();
   const rc::ClientSettings settings = rc::loadClientSettings(opt.config);
   const rc::ScenarioSettings& scenario = settings.scenario(opt.scenario);
+  const wj::model::RobotModel robot = wj::model::RobotModel::loadDefault(scenario.actuators_file);
 
   wj::nmpc::LocomotionSettings loco;
   loco.model.nominal_base_height_m = scenario.nmpc_base_height_m;

@@ -47,6 +47,10 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   if (s.landsOnWall())
     inRange(s.target_com_height_m, s.wall_height_m + 0.05, 1.5,
             p + "target.com_height_m (landing on the wall: CoM above its top)");
+  if (s.actuators_file.empty())
+    throw std::invalid_argument("robot client settings: " + p +
+                                "actuators_file must name a file in the models folder (e.g. "
+                                "actuators.yaml)");
   if (s.has_wall && s.run_up_speed_m_s > 0.0) {
     // The run-up must fit before the decision point.
     const double run_up = s.run_up_speed_m_s * s.run_up_speed_m_s / (2.0 * s.acceleration_m_s2);
@@ -102,6 +106,7 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   s.roll_on_speed_m_s = after.number("speed_m_s");
   s.roll_on_s = after.number("roll_s");
   after.finish();
+  if (m.has("actuators_file")) s.actuators_file = m.text("actuators_file");
   m.finish();
   return s;
 }

@@ -98,6 +98,10 @@ struct LegGeometry {
   double wheel_lateral_offset = 0.0;  ///< wheel plane offset from the shank, signed y [m]
 };
 
+/// Name of the project's actuator file in the models folder (the real robot: every peak torque
+/// from the URDF). Others, such as actuators-57nm.yaml, override the peak torque of a joint kind.
+inline constexpr const char* kDefaultActuatorsFile = "actuators.yaml";
+
 /// Immutable robot description. Cheap to copy; safe to share between threads.
 class RobotModel {
  public:
@@ -106,14 +110,24 @@ class RobotModel {
   /// have the expected structure (4 legs x HAA/HFE/KFE/WHEEL) or a figure is out of range.
   static RobotModel load(const std::filesystem::path& urdf,
                          const std::filesystem::path& actuators_yaml);
-  /// The project's robot: models/wheeljump.urdf and models/actuators.yaml, from the folder in
-  /// the WJ_MODELS_DIR environment variable if set, else defaultModelsDir().
-  static RobotModel loadDefault();
+  /// The project's robot: models/wheeljump.urdf and an actuator file (models/actuators.yaml by
+  /// default; e.g. "actuators-57nm.yaml" for the what-if robot with a 57 Nm knee), from the
+  /// folder in the WJ_MODELS_DIR environment variable if set, else defaultModelsDir(). A
+  /// relative `actuators_file` is read from that folder, an absolute one as it is. Throws
+  /// std::invalid_argument naming the file when it does not exist.
+  static RobotModel loadDefault(
+      const std::filesystem::path& actuators_file = kDefaultActuatorsFile);
   /// Folder used by loadDefault(), the first that holds wheeljump.urdf of: $WJ_MODELS_DIR;
   /// `<exe>/../share/wheeljump/models` (an installed binary, wherever the tree was unpacked);
   /// the source tree's models/ (a binary in the build tree);
   /// `<install prefix>/share/wheeljump/models`.
   static std::filesystem::path defaultModelsDir();
+
+  /// A copy whose joints of `kind` have the peak torque `peak_torque_nm` (what-if robots, e.g.
+  /// the knee-torque sweep of bench_planner; an actuator file's peak_torque_override_nm does
+  /// the same from configuration). The content hash changes with it. Throws
+  /// std::invalid_argument unless the torque lies in (0, 420] Nm.
+  RobotModel withPeakTorque(JointKind kind, double peak_torque_nm) const;
 
   const std::string& name() const { return name_; }
   const std::vector<LinkSpec>& links() const { return links_; }

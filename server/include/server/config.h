@@ -140,7 +140,10 @@ struct TlsConfig {
 
 struct ServerConfig {
   std::string listen = "127.0.0.1:50051";  ///< host:port; port 0 picks a free one
-  std::string models_dir;          ///< folder with wheeljump.urdf and actuators.yaml; "" = default
+  std::string models_dir;  ///< folder with wheeljump.urdf and actuators.yaml; "" = default
+  /// Actuator file of the robot planned for, relative to the models folder (or absolute), e.g.
+  /// "actuators-57nm.yaml"; optional in the YAML (older configurations: actuators.yaml).
+  std::string actuators_file = "actuators.yaml";
   std::string log_level = "info";  ///< trace, debug, info, warn, error
   double shutdown_grace_s = 5.0;   ///< SIGTERM: time in-flight calls get before cancellation
   PlannerConfig planner;

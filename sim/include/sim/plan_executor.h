@@ -49,6 +49,17 @@ struct ExecutorSettings {
   double landing_duration_s = 1.0;          ///< length of the landing phase [s]
   double airborne_debounce_s = 0.01;        ///< no wheel contact this long counts as airborne [s]
   double max_flight_overrun_s = 0.3;  ///< land anyway this long after t3 without touchdown [s]
+  /// Body pitch feedback while the robot stands on its hind wheels alone (t1 <= t < t2 of a
+  /// two-step take-off whose front legs carry no planned torque then): each hind wheel adds
+  /// hind_pitch_kp (pitch_plan - pitch) + hind_pitch_kd (pitch_rate_plan - pitch_rate),
+  /// clamped to +-hind_pitch_max_nm, to its planned torque. A forward wheel torque pitches the
+  /// body nose-up (its reaction on the leg and the traction below the CoM), so this closes the
+  /// balance on the hind wheels, which the joint references alone leave open loop in attitude
+  /// (docs/backflip.md: it recovers the pitch rate the front legs take at t1). The clamp keeps
+  /// the wheels inside their envelope and friction (larger ones spin the unloaded wheels).
+  double hind_pitch_kp = 100.0;     ///< [Nm/rad]
+  double hind_pitch_kd = 10.0;      ///< [Nm s/rad]
+  double hind_pitch_max_nm = 10.0;  ///< [Nm] per wheel
 
   /// Throws std::invalid_argument naming the field when a value is out of range.
   void validate() const;
@@ -101,6 +112,9 @@ class PlanExecutor {
  private:
   // Plan references interpolated linearly at time t (take-off gains).
   void sample(double t, model::JointCommands& out) const;
+  // Adds the body pitch feedback of the hind-only push to the hind wheels' torques.
+  void addHindPitchFeedback(double t, const Eigen::Vector3d& omega_W,
+                            model::JointCommands& out) const;
   // Flight references of a plan without flight samples (positions and speeds only).
   void blendToLanding(double t, model::JointCommands& out) const;
 
@@ -111,6 +125,10 @@ class PlanExecutor {
   double wheel_speed_ = 0.0;  // wheel joint speed reference after take-off [rad/s]
   JointVector q_flight_start_ = JointVector::Zero();   // measured at t2
   JointVector qd_flight_start_ = JointVector::Zero();  // measured at t2
+  bool hind_only_ = false;   // two-step plan: the front legs carry no torque in [t1, t2)
+  bool have_pitch_ = false;  // pitch0_ and pitch_ measured
+  double pitch0_ = 0.0;      // body pitch at t = 0 (the plan's pitch is relative to it)
+  double pitch_ = 0.0;       // unwrapped body pitch [rad]
   JumpPhase phase_ = JumpPhase::Takeoff;
   bool airborne_ = false;
   double last_contact_t_ = 0.0;

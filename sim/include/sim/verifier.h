@@ -166,7 +166,12 @@ struct VerificationReport {
   double final_time_s = 0.0;           ///< end of the run [s]
   bool settled_early = false;  ///< ended before landing_duration_s: at rest for settle_window_s
   double final_base_height_m = 0.0;  ///< base origin above the terrain at the end [m]
-  double final_pitch_rad = 0.0;      ///< relative to the ground slope
+  /// Relative to the ground slope, folded to (-pi, pi]: after a backflip (a full turn) an
+  /// upright robot reads 0, not 2 pi.
+  double final_pitch_rad = 0.0;
+  /// Total nose-up rotation from the start to the end of the run, unwrapped [rad] (2 pi after
+  /// a backflip).
+  double final_rotation_rad = 0.0;
   double final_roll_rad = 0.0;
   double final_angular_speed_rad_s = 0.0;
 
@@ -212,6 +217,14 @@ VerificationReport verify(const model::RobotModel& model, const VerifierSettings
 /// (rigid-body twist; SimRobot-independent). Joint q and qd are copied.
 RobotPlacement calcPlacement(const model::RobotModel& model, const InitialState& initial,
                              const Terrain& terrain);
+
+/// Nose-up pitch (rotation about -y) of the base orientation R_WB, unwrapped to be continuous
+/// with `previous` (the pitch of the step before): a full turn reads 2 pi, not 0. Every pitch
+/// the verifier measures (take-off, apex, touchdown) comes from this running value.
+double calcUnwrappedPitch(const Eigen::Matrix3d& R_WB, double previous);
+
+/// An angle folded to (-pi, pi] (how far from upright a pitch is, after any number of turns).
+double foldAngle(double angle_rad);
 
 /// Signed distance from a point to the terrain surface (ground plane or boxes) [m].
 double calcTerrainDistance(const Terrain& terrain, const Eigen::Vector3d& p_W);

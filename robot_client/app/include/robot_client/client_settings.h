@@ -114,6 +114,10 @@ struct ScenarioSettings {
   double roll_on_speed_m_s = 3.0;  ///< roll_on: speed along the heading [m/s]
   double roll_on_s = 2.0;          ///< roll_on: how long it rolls on before it stops [s]
   double duration_s = 12.0;        ///< end of the run [s]
+  /// Actuator file of the robot in this scenario (models folder; optional key, default the
+  /// real robot's). The simulated robot and the planning service must use the same one: the
+  /// service's `actuators_file` (docs/backflip.md).
+  std::string actuators_file = "actuators.yaml";
 
   /// The jump lands on top of the "wall" (a platform): a touchdown target whose CoM x lies
   /// over it, as the planner reads the same request (planner::JumpTask::landsOnObstacle()).

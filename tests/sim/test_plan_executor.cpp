@@ -1,0 +1,125 @@
+// The plan executor's pitch feedback on the hind wheels: it acts only while a two-step plan
+// stands on its hind wheels (t1 <= t < t2, front legs without planned torque), adds
+// kp e + kd e_rate to both hind wheels' torque, relative to the pitch measured at t = 0, and
+// stays within its clamp; settings outside their range are rejected by name.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+#include "sim/plan_executor.h"
+
+namespace wj::sim {
+namespace {
+
+using model::jointIndex;
+using model::JointKind;
+using model::Leg;
+
+model::RobotModel loadRobot() {
+  const std::filesystem::path dir = WJ_MODELS_DIR;
+  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
+}
+
+// Constant references: every body pitch 0.5 rad at 1 rad/s, every joint torque `tau`, except
+// the front legs in [t1, t2) which carry `front_tau` (0: the front pair has lifted).
+planner::JumpPlan makePlan(double front_tau) {
+  planner::JumpPlan plan;
+  plan.dt = 0.002;
+  plan.t1 = 0.1;
+  plan.t2 = 0.3;
+  plan.t3 = 0.5;
+  const int n = 251;
+  plan.centroidal.assign(n, planner::PlanarState{0.0, 0.3, 0.5, 0.0, 0.0, 1.0});
+  plan.q = Eigen::MatrixXd::Zero(n, model::kNumJoints);
+  plan.qd = Eigen::MatrixXd::Zero(n, model::kNumJoints);
+  plan.tau = Eigen::MatrixXd::Constant(n, model::kNumJoints, 2.0);
+  for (int k = 50; k < 150; ++k)
+    for (const Leg leg : {Leg::LF, Leg::RF})
+      for (const JointKind kind : model::kJointKinds)
+        plan.tau(k, jointIndex(leg, kind)) = front_tau;
+  return plan;
+}
+
+// The body pitched nose-up by `pitch` (about -y), turning nose-up at `rate`.
+model::SensorData pitched(double pitch, double rate) {
+  model::SensorData s;
+  s.imu.q_WB = Eigen::Quaterniond(Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitY()));
+  s.imu.omega_B = Eigen::Vector3d(0.0, -rate, 0.0);  // about B's y = W's y here
+  return s;
+}
+
+ExecutorSettings gains(double kp, double kd, double max_nm) {
+  ExecutorSettings s;
+  s.landing_gravity_feedforward = false;
+  s.hind_pitch_kp = kp;
+  s.hind_pitch_kd = kd;
+  s.hind_pitch_max_nm = max_nm;
+  return s;
+}
+
+double wheelTau(const model::JointCommands& c, Leg leg) {
+  return c[jointIndex(leg, JointKind::Wheel)].tau_ff;
+}
+
+TEST(PlanExecutor, HindWheelsCloseThePitchLoopOnlyOnTheHindWheels) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan(0.0);
+  PlanExecutor ex(robot, plan, gains(4.0, 3.0, 100.0), 9.81);
+  model::JointCommands c{};
+  // The start is pitched 0.1 rad: the plan's pitch is relative to it.
+  ex.update(0.0, pitched(0.1, 0.0), true, c);
+  ex.update(0.05, pitched(0.1, 0.0), true, c);  // four-wheel push: the plan's torques only
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 2.0);
+  // Hind-only: pitch 0.2 rad (0.1 from the start) at 0.25 rad/s against 0.5 rad at 1 rad/s.
+  ex.update(0.2, pitched(0.2, 0.25), true, c);
+  const double expected = 2.0 + 4.0 * (0.5 - 0.1) + 3.0 * (1.0 - 0.25);
+  EXPECT_NEAR(wheelTau(c, Leg::LH), expected, 1e-9);
+  EXPECT_NEAR(wheelTau(c, Leg::RH), expected, 1e-9);
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LF), 0.0);  // the plan's (lifted) front wheels untouched
+  // Ahead of the plan: the feedback brakes (nose-down).
+  ex.update(0.22, pitched(0.9, 2.0), true, c);
+  EXPECT_LT(wheelTau(c, Leg::LH), 2.0);
+}
+
+TEST(PlanExecutor, PitchFeedbackIsClampedAndOffWithoutAHindOnlyPhase) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan lifted = makePlan(0.0);
+  PlanExecutor clamped(robot, lifted, gains(100.0, 10.0, 3.0), 9.81);
+  model::JointCommands c{};
+  clamped.update(0.0, pitched(0.0, 0.0), true, c);
+  clamped.update(0.2, pitched(-1.0, -5.0), true, c);
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::RH), 2.0 + 3.0);
+  clamped.update(0.21, pitched(2.0, 20.0), true, c);
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::RH), 2.0 - 3.0);
+
+  // Front legs still pushing in [t1, t2): not a hind-only phase, no feedback.
+  const planner::JumpPlan four_wheel = makePlan(2.0);
+  PlanExecutor open(robot, four_wheel, gains(100.0, 10.0, 30.0), 9.81);
+  open.update(0.0, pitched(0.0, 0.0), true, c);
+  open.update(0.2, pitched(-1.0, -5.0), true, c);
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::RH), 2.0);
+}
+
+TEST(PlanExecutor, NegativePitchGainsAreRejectedByName) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan(0.0);
+  for (const char* field : {"hind_pitch_kp", "hind_pitch_kd", "hind_pitch_max_nm"}) {
+    ExecutorSettings s = gains(1.0, 1.0, 1.0);
+    if (std::string(field) == "hind_pitch_kp") s.hind_pitch_kp = -1.0;
+    if (std::string(field) == "hind_pitch_kd") s.hind_pitch_kd = -1.0;
+    if (std::string(field) == "hind_pitch_max_nm") s.hind_pitch_max_nm = std::nan("");
+    try {
+      PlanExecutor ex(robot, plan, s, 9.81);
+      ADD_FAILURE() << field << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace wj::sim
