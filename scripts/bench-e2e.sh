@@ -14,16 +14,10 @@ shift $(( $# > 2 ? 2 : $# ))
 BIN=$BUILD/bin
 WORK=$(mktemp -d)
 PORT=${WJ_BENCH_PORT:-50161}
-sed -e "s|^listen: .*|listen: \"127.0.0.1:${PORT}\"|" \
-    -e "s|^  path: .*|  path: \"${WORK}/plan_cache.sqlite\"|" \
-    config/planner_server.yaml > "$WORK/planner_server.yaml"
-"$BIN/planner_server" --config "$WORK/planner_server.yaml" > "$WORK/server.log" 2>&1 &
-SERVER=$!
-trap 'kill $SERVER 2>/dev/null; wait $SERVER 2>/dev/null || true; rm -rf "$WORK"' EXIT
-for _ in $(seq 1 100); do
-  "$BIN/planner_cli" --target "127.0.0.1:${PORT}" --deadline-ms 500 stats > /dev/null 2>&1 && break
-  sleep 0.1
-done
+source scripts/planner-server.sh
+trap 'stop_planner_server; rm -rf "$WORK"' EXIT
+start_planner_server "$BIN" "$PORT" "$WORK/plan_cache.sqlite" "$WORK/planner_server.yaml" \
+  "$WORK/server.log"
 for seed in $(seq 1 "$SEEDS"); do
   "$BIN/robot_client" --backend sim --via-can --config config/robot_client.yaml \
     --planner "127.0.0.1:${PORT}" --scenario forward --seed "$seed" --json "$@" \

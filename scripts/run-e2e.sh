@@ -16,19 +16,11 @@ BIN=$BUILD/bin
 mkdir -p out
 PORT=${WJ_E2E_PORT:-50151}
 
-# The service's configuration: the shipped one, listening on this port, cache under out/.
-sed -e "s|^listen: .*|listen: \"127.0.0.1:${PORT}\"|" \
-    -e "s|^  path: .*|  path: \"$(pwd)/out/plan_cache.sqlite\"|" \
-    config/planner_server.yaml > out/planner_server.yaml
-"$BIN/planner_server" --config out/planner_server.yaml > out/planner_server.log 2>&1 &
-SERVER=$!
-trap 'kill $SERVER 2>/dev/null; wait $SERVER 2>/dev/null || true' EXIT
-for _ in $(seq 1 100); do
-  if "$BIN/planner_cli" --target "127.0.0.1:${PORT}" --deadline-ms 500 stats > /dev/null 2>&1; then
-    break
-  fi
-  sleep 0.1
-done
+# The service: the shipped configuration, listening on this port, cache under out/.
+source scripts/planner-server.sh
+trap stop_planner_server EXIT
+start_planner_server "$BIN" "$PORT" "$(pwd)/out/plan_cache.sqlite" out/planner_server.yaml \
+  out/planner_server.log
 
 status=0
 run() {

@@ -1,0 +1,24 @@
+# Sourced by the run and bench scripts: starts the planning service on loopback for them.
+#
+#   start_planner_server BIN PORT CACHE_FILE CONFIG_OUT LOG
+#
+# writes the shipped config/planner_server.yaml listening on 127.0.0.1:PORT with its cache at
+# CACHE_FILE to CONFIG_OUT, starts BIN/planner_server in the background (its pid in SERVER,
+# stopped by stop_planner_server) and waits up to 10 s until it answers.
+
+start_planner_server() {
+  local bin=$1 port=$2 cache=$3 config=$4 log=$5
+  sed -e "s|^listen: .*|listen: \"127.0.0.1:${port}\"|" \
+      -e "s|^  path: .*|  path: \"${cache}\"|" \
+      config/planner_server.yaml > "$config"
+  "$bin/planner_server" --config "$config" > "$log" 2>&1 &
+  SERVER=$!
+  for _ in $(seq 1 100); do
+    "$bin/planner_cli" --target "127.0.0.1:${port}" --deadline-ms 500 stats > /dev/null 2>&1 && break
+    sleep 0.1
+  done
+}
+
+stop_planner_server() {
+  if [ -n "${SERVER:-}" ]; then kill "$SERVER" 2>/dev/null || true; wait "$SERVER" 2>/dev/null || true; fi
+}
