@@ -19,6 +19,8 @@ PACKAGES=(
   libsqlite3-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the shell scripts' lint (tests/deploy/check_shellcheck.sh)
+  shellcheck
   # service tests: TLS certificates (openssl), the libFuzzer build (clang, libclang-rt-14-dev)
   openssl clang libclang-rt-14-dev
   # plots
@@ -61,7 +63,10 @@ install_npm_packages() {
 
 missing=()
 for p in "${PACKAGES[@]}"; do
-  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+  # The status is read whole before it is compared: `producer | grep -q` under pipefail fails
+  # when grep exits before the producer has written everything (SIGPIPE, issue 26).
+  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
+  if [ "$status" != "install ok installed" ]; then
     missing+=("$p")
   fi
 done

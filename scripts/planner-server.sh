@@ -1,4 +1,5 @@
 # Sourced by the run and bench scripts: starts the planning service on loopback for them.
+# shellcheck shell=bash
 #
 #   start_planner_server BIN PORT CACHE_FILE CONFIG_OUT LOG
 #

@@ -76,8 +76,9 @@ trap 'rm -rf "$tmp"' EXIT
 dpkg-deb -x "$server" "$tmp"
 ! ldd "$tmp/usr/bin/planner_server" | grep "not found" || fail "planner_server needs a library not found here"
 for lib in $(ldd "$tmp/usr/bin/planner_server" | awk '/=> \//{print $3}'); do
-  owner=$(dpkg -S "$(readlink -f "$lib")" 2>/dev/null | head -1 | cut -d: -f1) || true
-  [ -z "$owner" ] && owner=$(dpkg -S "$lib" 2>/dev/null | head -1 | cut -d: -f1) || true
+  # awk reads dpkg's whole answer (head -1 would close the pipe early, see above).
+  owner=$(dpkg -S "$(readlink -f "$lib")" 2>/dev/null | awk -F: 'NR == 1 {print $1}') || true
+  [ -z "$owner" ] && owner=$(dpkg -S "$lib" 2>/dev/null | awk -F: 'NR == 1 {print $1}') || true
   [ -n "$owner" ] || continue
   case "$declared" in *" $owner "*) ;; *) undeclared="${undeclared:-} $owner($(basename "$lib"))" ;; esac
 done

@@ -21,7 +21,8 @@ dpkg "${opts[@]}" -i "${debs[@]}"
 dpkg --root="$root" -l | grep '^ii' | awk '{print $2, $3}'
 for d in "${debs[@]}"; do
   name=$(dpkg-deb --field "$d" Package)
-  dpkg --root="$root" -s "$name" | grep -q "^Status: install ok installed" || fail "$name is not installed"
+  status=$(dpkg --root="$root" -s "$name")
+  grep -q "^Status: install ok installed" <<<"$status" || fail "$name is not installed"
 done
 
 # Files where the units and the documentation say they are.
@@ -35,11 +36,13 @@ done
 # The installed binaries have no library path into the build tree.
 build=$(cd "$out/../../.." && pwd)
 for b in planner_server planner_cli; do
-  ! readelf -d "$root/usr/bin/$b" | grep -E 'RPATH|RUNPATH' | grep -qF "$build" || fail "$b has a build-tree RUNPATH"
+  dynamic=$(readelf -d "$root/usr/bin/$b")
+  ! grep -E 'RPATH|RUNPATH' <<<"$dynamic" | grep -qF "$build" || fail "$b has a build-tree RUNPATH"
 done
 
 server="$root/usr/bin/planner_server"
-"$server" --help | grep -q -- "--check-config" || fail "planner_server --help does not list --check-config"
+help=$("$server" --help)
+grep -q -- "--check-config" <<<"$help" || fail "planner_server --help does not list --check-config"
 for p in nuc workstation; do
   msg=$("$server" --check-config "$root/etc/wheeljump/profiles/$p/planner_server.yaml") ||
     fail "profile $p: --check-config exit $?"
@@ -84,7 +87,8 @@ if [ -e "$root/usr/bin/robot_client" ]; then
 fi
 
 # wheeljump-profile switches the profile and the TLS drop-in, in the scratch root.
-WHEELJUMP_ROOT="$root" "$root/usr/bin/wheeljump-profile" list | grep -qx workstation || fail "profile list"
+profiles=$(WHEELJUMP_ROOT="$root" "$root/usr/bin/wheeljump-profile" list)
+grep -qx workstation <<<"$profiles" || fail "profile list"
 WHEELJUMP_ROOT="$root" "$root/usr/bin/wheeljump-profile" workstation 2>/dev/null
 [ "$(readlink "$root/etc/wheeljump/active")" = profiles/workstation ] || fail "switch to workstation"
 [ -f "$root/etc/systemd/system/wheeljump-planner.service.d/50-tls.conf" ] || fail "no TLS drop-in"
