@@ -194,6 +194,14 @@ RobotPlacement calcPlacement(const model::RobotModel& model, const InitialState&
 }
 
 //==============================================================================================
+VerifierSettings VerifierSettings::reference() {
+  // The reference integrator of docs/sim.md, "Integrator": Runge-Kutta-Merson at 1e-5.
+  VerifierSettings s;
+  s.sim.integrator.kind = IntegratorKind::RungeKuttaMerson;
+  s.sim.integrator.accuracy = 1e-5;
+  return s;
+}
+
 Verifier::Verifier(model::RobotModel model, VerifierSettings settings)
     : model_(std::move(model)), settings_(std::move(settings)) {
   settings_.sim.validate();
