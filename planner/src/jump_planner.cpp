@@ -187,6 +187,256 @@ Eigen::VectorXd backToTheConstraints(const JumpModel& model, const Eigen::Vector
   return start + lo * (end - start);
 }
 
+// One plan() call after its input is checked: the DE attempts with restarts and the polish
+// between them, the final polish and its retries, the candidates for verification. Each step
+// fills its part of the result.
+class PlanRun {
+ public:
+  PlanRun(const PlannerSettings& settings, const JumpModel& model, const PlanOptions& options,
+          const de::Settings& des)
+      : settings_(settings),
+        model_(model),
+        options_(options),
+        des_(des),
+        problem_(model),
+        polish_on_(options.polish.value_or(settings.polish) && settings.polish_max_iterations > 0) {
+  }
+
+  // Restarts: the evaluation budget is split into attempts; an attempt that ends without a
+  // feasible candidate (trapped in a penalty basin) is followed by one from a fresh
+  // population (deterministic seed sequence), keeping the best overall.
+  void search(const Eigen::MatrixXd& first_population);
+  // The polish of the best point (unless the polish between attempts already reached a
+  // feasible one), then the other attempts' bests while the result is still infeasible.
+  void polish();
+  // Distinct candidates for verification: the best, then the DE population in cost order,
+  // skipping points closer than 1e-3 of the box (normalised) to one already taken.
+  void pickCandidates();
+
+  PlannerResult result;
+
+ private:
+  using Polished = std::pair<Eigen::VectorXd, Evaluation>;
+
+  // A restart is for an attempt trapped in a penalty basin: its best violates a constraint.
+  // When the best meets every constraint and only misses the target, the target is what is out
+  // of reach (the attempts end at the same frontier), so the budget is not spent again.
+  bool trapped(const Eigen::VectorXd& x) const {
+    Evaluation ev;
+    model_.evaluate(x, ev);
+    return !ev.constraints_ok;
+  }
+  bool cancelled() const { return options_.cancel && options_.cancel->load(); }
+  bool wasPolished(const Eigen::VectorXd& x) const {
+    return std::find(polished_.begin(), polished_.end(), x) != polished_.end();
+  }
+  // Polishes an attempt's best x (cold iteration limit) and returns the result if it is
+  // feasible; x is not polished again.
+  std::optional<Polished> polishToFeasible(const Eigen::VectorXd& x);
+  // The settings of restart `restart`, false when the budget (evaluations or time) is spent.
+  bool nextAttempt(int restart, de::Settings& again) const;
+  // Folds the result of a restart into the result so far: logs and counters continue, the
+  // best stays the best.
+  void mergeAttempt(de::Result next);
+  // The polish of result.u with the goal its evaluation calls for.
+  void polishFinal(int max_iterations);
+  // Still infeasible: the other attempts' bests, lowest cost first.
+  void retryOtherAttempts();
+
+  const PlannerSettings& settings_;
+  const JumpModel& model_;
+  const PlanOptions& options_;
+  const de::Settings des_;
+  const JumpProblem problem_;
+  const bool polish_on_;
+  const Clock::time_point t0_ = Clock::now();  // the DE's clock (the warm start counts)
+  std::int64_t attempt_budget_ = 0;
+  // The best point of every attempt, for the polish retries.
+  std::vector<std::pair<double, Eigen::VectorXd>> attempt_bests_;
+  // The points polished between attempts are not polished again.
+  std::vector<Eigen::VectorXd> polished_;
+  double between_polish_ms_ = 0.0;
+  std::optional<Polished> early_;
+};
+
+std::optional<PlanRun::Polished> PlanRun::polishToFeasible(const Eigen::VectorXd& x) {
+  polished_.push_back(x);
+  Eigen::VectorXd u_polished;
+  int iterations = 0;
+  if (polishCandidate(model_, x, u_polished, &iterations, 0, PolishGoal::MeetTarget,
+                      des_.threads) == PolishOutcome::Failed)
+    return std::nullopt;
+  result.polish_iterations += iterations;
+  Evaluation ev;
+  model_.evaluate(u_polished, ev);
+  if (!ev.feasible) return std::nullopt;
+  return Polished{u_polished, ev};
+}
+
+bool PlanRun::nextAttempt(int restart, de::Settings& again) const {
+  const PlannerResult& r = result;
+  const bool cut_short = r.de.stop_reason == de::StopReason::Cancelled ||
+                         r.de.stop_reason == de::StopReason::TimeBudget;
+  const std::int64_t left = des_.max_evaluations - r.de.evaluations;
+  if (cut_short || left < 10 * des_.population_size) return false;
+  again = des_;
+  again.seed = des_.seed + 0x9E3779B97F4A7C15ULL * static_cast<std::uint64_t>(restart);
+  again.max_evaluations = restart == settings_.de_restarts ? left : std::min(left, attempt_budget_);
+  if (des_.time_budget_s > 0.0) {
+    again.time_budget_s = des_.time_budget_s - msSince(t0_) / 1e3;
+    if (again.time_budget_s <= 0.0) return false;
+  }
+  return true;
+}
+
+void PlanRun::mergeAttempt(de::Result next) {
+  PlannerResult& r = result;
+  for (auto& g : next.log) {
+    g.generation += r.de.generations;
+    g.evaluations += r.de.evaluations;
+  }
+  if (next.first_feasible_evaluations >= 0) {
+    next.first_feasible_evaluations += r.de.evaluations;
+    next.first_feasible_s = msSince(t0_) / 1e3 - (next.elapsed_s - next.first_feasible_s);
+  }
+  next.log.insert(next.log.begin(), r.de.log.begin(), r.de.log.end());
+  next.evaluations += r.de.evaluations;
+  next.generations += r.de.generations;
+  if (!(next.best.cost < r.de.best.cost)) {
+    // Keep the earlier best but account for the work done.
+    next.best = r.de.best;
+    next.best_x = r.de.best_x;
+    next.population = r.de.population;
+    next.fitness = r.de.fitness;
+  }
+  r.de = std::move(next);
+  ++r.de_restarts;
+}
+
+void PlanRun::search(const Eigen::MatrixXd& first_population) {
+  PlannerResult& r = result;
+  const std::int64_t total_budget = des_.max_evaluations;
+  attempt_budget_ =
+      std::max<std::int64_t>(total_budget / (settings_.de_restarts + 1), 10 * des_.population_size);
+  {
+    de::Settings first = des_;
+    first.max_evaluations = std::min(attempt_budget_, total_budget);
+    r.de = de::Solver(first).solve(problem_, first_population, options_.cancel);
+    attempt_bests_.emplace_back(r.de.best.cost, r.de.best_x);
+  }
+  for (int restart = 1;
+       !r.de.best.feasible && restart <= settings_.de_restarts && trapped(r.de.best_x); ++restart) {
+    // Polish between attempts: a trapped attempt often ends next to a feasible plan that the
+    // polish reaches (forward preset: 5 of 10 first attempts), and the attempts after it are
+    // then not needed. The points polished here are not polished again below.
+    if (polish_on_ && settings_.polish_between_attempts && !cancelled()) {
+      const auto tp = Clock::now();
+      early_ = polishToFeasible(attempt_bests_.back().second);
+      between_polish_ms_ += msSince(tp);
+      if (early_) break;
+    }
+    de::Settings again;
+    if (!nextAttempt(restart, again)) break;
+    de::Result next = de::Solver(again).solve(problem_, Eigen::MatrixXd(), options_.cancel);
+    attempt_bests_.emplace_back(next.best.cost, next.best_x);
+    mergeAttempt(std::move(next));
+  }
+  r.de.elapsed_s = (msSince(t0_) - between_polish_ms_) / 1e3;
+  r.de_ms = msSince(t0_) - between_polish_ms_;
+  r.de_cost = r.de.best.cost;
+  r.u = r.de.best_x;
+  model_.evaluate(r.u, r.evaluation);
+  if (early_) {
+    r.u = early_->first;
+    r.evaluation = early_->second;
+    r.polish = PolishOutcome::Improved;
+  }
+  r.polish_ms = between_polish_ms_;
+}
+
+void PlanRun::polishFinal(int max_iterations) {
+  PlannerResult& r = result;
+  if (wasPolished(r.u)) {
+    // The best attempt was polished between attempts, in vain: only the retries remain.
+    r.polish = PolishOutcome::Rejected;
+    return;
+  }
+  Eigen::VectorXd u_pol;
+  int iterations = 0;
+  r.polish_goal = polishGoalFor(r.evaluation);
+  r.polish =
+      polishCandidate(model_, r.u, u_pol, &iterations, max_iterations, r.polish_goal, des_.threads);
+  r.polish_iterations += iterations;
+  if (r.polish == PolishOutcome::Failed) return;
+  Evaluation ev;
+  model_.evaluate(u_pol, ev);
+  if (r.polish_goal == PolishGoal::ClosestApproach && !ev.constraints_ok)
+    u_pol = backToTheConstraints(model_, r.u, r.evaluation, u_pol, ev);
+  // The polish never worsens the result: keep its point only if the cost drops and it is
+  // feasible whenever the DE's point was.
+  const bool better = ev.cost < r.evaluation.cost && (ev.feasible || !r.evaluation.feasible);
+  if (better) {
+    r.u = u_pol;
+    r.evaluation = ev;
+    r.polish = PolishOutcome::Improved;
+  } else {
+    r.polish = PolishOutcome::Rejected;
+  }
+}
+
+void PlanRun::retryOtherAttempts() {
+  PlannerResult& r = result;
+  std::sort(attempt_bests_.begin(), attempt_bests_.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  int retries = 0;
+  for (const auto& [cost, x] : attempt_bests_) {
+    if (r.evaluation.feasible || retries >= settings_.polish_retries) break;
+    if (x.size() != r.de.best_x.size() || x == r.de.best_x || wasPolished(x)) continue;
+    if (cancelled()) break;
+    ++retries;
+    if (const auto p = polishToFeasible(x)) {
+      r.u = p->first;
+      r.evaluation = p->second;
+      r.polish = PolishOutcome::Improved;
+    }
+  }
+  r.polish_retries = retries;
+}
+
+void PlanRun::polish() {
+  PlannerResult& r = result;
+  const bool do_polish = polish_on_ && r.evaluation.valid && !early_;
+  if (do_polish) {
+    const auto t0 = Clock::now();
+    // A warm start begins next to a polished neighbour: a few iterations meet the target and
+    // the back-off there; the energy it would still gain is small (docs/planner.md).
+    const int max_iterations =
+        options_.warm_start.cols() > 0 ? settings_.polish_warm_max_iterations : 0;
+    polishFinal(max_iterations);
+    retryOtherAttempts();
+    r.polish_ms = between_polish_ms_ + msSince(t0);
+  }
+  r.final_cost = r.evaluation.cost;
+}
+
+void PlanRun::pickCandidates() {
+  PlannerResult& r = result;
+  const Eigen::VectorXd range = (model_.upperBounds() - model_.lowerBounds()).cwiseMax(1e-12);
+  r.candidates.push_back({r.u, r.evaluation});
+  for (int j = 0; j < r.de.population.cols() &&
+                  static_cast<int>(r.candidates.size()) < options_.num_candidates;
+       ++j) {
+    const Eigen::VectorXd x = r.de.population.col(j);
+    bool distinct = true;
+    for (const auto& c : r.candidates)
+      if (((x - c.u).cwiseQuotient(range)).norm() < 1e-3) distinct = false;
+    if (!distinct) continue;
+    Candidate c{x, {}};
+    model_.evaluate(x, c.evaluation);
+    if (c.evaluation.valid) r.candidates.push_back(std::move(c));
+  }
+}
+
 }  // namespace
 
 PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initial,
@@ -206,192 +456,18 @@ PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initia
   if (options.time_budget_s) des.time_budget_s = *options.time_budget_s;
   if (options.threads) des.threads = *options.threads;
   des.validate();
-  const JumpProblem problem(model);
 
-  PlannerResult r;
-  auto t0 = Clock::now();
-  // Restarts: the evaluation budget is split into attempts; an attempt that ends without a
-  // feasible candidate (trapped in a penalty basin) is followed by one from a fresh
-  // population (deterministic seed sequence), keeping the best overall.
-  const std::int64_t total_budget = des.max_evaluations;
-  const std::int64_t attempt_budget =
-      std::max<std::int64_t>(total_budget / (settings_.de_restarts + 1), 10 * des.population_size);
-  // The best point of every attempt, for the polish retries.
-  std::vector<std::pair<double, Eigen::VectorXd>> attempt_bests;
-  {
-    de::Settings first = des;
-    first.max_evaluations = std::min(attempt_budget, total_budget);
-    r.de = de::Solver(first).solve(
-        problem, warmCloud(model, initialGuesses(task, options), des.seed), options.cancel);
-    attempt_bests.emplace_back(r.de.best.cost, r.de.best_x);
-  }
-  // A restart is for an attempt trapped in a penalty basin: its best violates a constraint.
-  // When the best meets every constraint and only misses the target, the target is what is out
-  // of reach (the attempts end at the same frontier), so the budget is not spent again.
-  auto trapped = [&model](const Eigen::VectorXd& x) {
-    Evaluation ev;
-    model.evaluate(x, ev);
-    return !ev.constraints_ok;
-  };
-  const bool polish_on =
-      options.polish.value_or(settings_.polish) && settings_.polish_max_iterations > 0;
-  // Polish between attempts: a trapped attempt often ends next to a feasible plan that the
-  // polish reaches (forward preset: 5 of 10 first attempts), and the attempts after it are then
-  // not needed. The points polished here are not polished again below.
-  using Polished = std::pair<Eigen::VectorXd, Evaluation>;
-  std::vector<Eigen::VectorXd> polished;
-  auto wasPolished = [&polished](const Eigen::VectorXd& x) {
-    return std::find(polished.begin(), polished.end(), x) != polished.end();
-  };
-  // Polishes an attempt's best x (cold iteration limit) and returns the result if it is
-  // feasible; x is not polished again.
-  auto polishToFeasible = [&](const Eigen::VectorXd& x) -> std::optional<Polished> {
-    polished.push_back(x);
-    Eigen::VectorXd u_polished;
-    int iterations = 0;
-    if (polishCandidate(model, x, u_polished, &iterations, 0, PolishGoal::MeetTarget,
-                        des.threads) == PolishOutcome::Failed)
-      return std::nullopt;
-    r.polish_iterations += iterations;
-    Evaluation ev;
-    model.evaluate(u_polished, ev);
-    if (!ev.feasible) return std::nullopt;
-    return Polished{u_polished, ev};
-  };
-  double between_polish_ms = 0.0;
-  std::optional<Polished> early;
-  for (int restart = 1;
-       !r.de.best.feasible && restart <= settings_.de_restarts && trapped(r.de.best_x); ++restart) {
-    if (polish_on && settings_.polish_between_attempts &&
-        !(options.cancel && options.cancel->load())) {
-      const auto tp = Clock::now();
-      early = polishToFeasible(attempt_bests.back().second);
-      between_polish_ms += msSince(tp);
-      if (early) break;
-    }
-    const bool cut_short = r.de.stop_reason == de::StopReason::Cancelled ||
-                           r.de.stop_reason == de::StopReason::TimeBudget;
-    const std::int64_t left = total_budget - r.de.evaluations;
-    if (cut_short || left < 10 * des.population_size) break;
-    de::Settings again = des;
-    again.seed = des.seed + 0x9E3779B97F4A7C15ULL * static_cast<std::uint64_t>(restart);
-    again.max_evaluations =
-        restart == settings_.de_restarts ? left : std::min(left, attempt_budget);
-    if (des.time_budget_s > 0.0) {
-      again.time_budget_s = des.time_budget_s - msSince(t0) / 1e3;
-      if (again.time_budget_s <= 0.0) break;
-    }
-    de::Result next = de::Solver(again).solve(problem, Eigen::MatrixXd(), options.cancel);
-    attempt_bests.emplace_back(next.best.cost, next.best_x);
-    for (auto& g : next.log) {
-      g.generation += r.de.generations;
-      g.evaluations += r.de.evaluations;
-    }
-    if (next.first_feasible_evaluations >= 0) {
-      next.first_feasible_evaluations += r.de.evaluations;
-      next.first_feasible_s = msSince(t0) / 1e3 - (next.elapsed_s - next.first_feasible_s);
-    }
-    next.log.insert(next.log.begin(), r.de.log.begin(), r.de.log.end());
-    next.evaluations += r.de.evaluations;
-    next.generations += r.de.generations;
-    if (!(next.best.cost < r.de.best.cost)) {
-      // Keep the earlier best but account for the work done.
-      next.best = r.de.best;
-      next.best_x = r.de.best_x;
-      next.population = r.de.population;
-      next.fitness = r.de.fitness;
-    }
-    r.de = std::move(next);
-    ++r.de_restarts;
-  }
-  r.de.elapsed_s = (msSince(t0) - between_polish_ms) / 1e3;
-  r.de_ms = msSince(t0) - between_polish_ms;
-  r.de_cost = r.de.best.cost;
-  r.u = r.de.best_x;
-  model.evaluate(r.u, r.evaluation);
+  PlanRun run(settings_, model, options, des);
+  run.search(warmCloud(model, initialGuesses(task, options), des.seed));
+  run.polish();
+  run.pickCandidates();
 
-  if (early) {
-    r.u = early->first;
-    r.evaluation = early->second;
-    r.polish = PolishOutcome::Improved;
-  }
-  r.polish_ms = between_polish_ms;
-  const bool do_polish = polish_on && r.evaluation.valid && !early;
-  if (do_polish) {
-    t0 = Clock::now();
-    Eigen::VectorXd u_pol;
-    // A warm start begins next to a polished neighbour: a few iterations meet the target and
-    // the back-off there; the energy it would still gain is small (docs/planner.md).
-    const int max_iterations =
-        options.warm_start.cols() > 0 ? settings_.polish_warm_max_iterations : 0;
-    if (wasPolished(r.u)) {
-      // The best attempt was polished between attempts, in vain: only the retries remain.
-      r.polish = PolishOutcome::Rejected;
-    } else {
-      int iterations = 0;
-      r.polish_goal = polishGoalFor(r.evaluation);
-      r.polish = polishCandidate(model, r.u, u_pol, &iterations, max_iterations, r.polish_goal,
-                                 des.threads);
-      r.polish_iterations += iterations;
-      if (r.polish != PolishOutcome::Failed) {
-        Evaluation ev;
-        model.evaluate(u_pol, ev);
-        if (r.polish_goal == PolishGoal::ClosestApproach && !ev.constraints_ok)
-          u_pol = backToTheConstraints(model, r.u, r.evaluation, u_pol, ev);
-        // The polish never worsens the result: keep its point only if the cost drops and it is
-        // feasible whenever the DE's point was.
-        const bool better = ev.cost < r.evaluation.cost && (ev.feasible || !r.evaluation.feasible);
-        if (better) {
-          r.u = u_pol;
-          r.evaluation = ev;
-          r.polish = PolishOutcome::Improved;
-        } else {
-          r.polish = PolishOutcome::Rejected;
-        }
-      }
-    }
-    // Still infeasible: the other attempts' bests, lowest cost first.
-    std::sort(attempt_bests.begin(), attempt_bests.end(),
-              [](const auto& a, const auto& b) { return a.first < b.first; });
-    int retries = 0;
-    for (const auto& [cost, x] : attempt_bests) {
-      if (r.evaluation.feasible || retries >= settings_.polish_retries) break;
-      if (x.size() != r.de.best_x.size() || x == r.de.best_x || wasPolished(x)) continue;
-      if (options.cancel && options.cancel->load()) break;
-      ++retries;
-      if (const auto p = polishToFeasible(x)) {
-        r.u = p->first;
-        r.evaluation = p->second;
-        r.polish = PolishOutcome::Improved;
-      }
-    }
-    r.polish_retries = retries;
-    r.polish_ms = between_polish_ms + msSince(t0);
-  }
-  r.final_cost = r.evaluation.cost;
-
-  // Distinct candidates for verification: the best, then the DE population in cost order,
-  // skipping points closer than 1e-3 of the box (normalised) to one already taken.
-  const Eigen::VectorXd range = (model.upperBounds() - model.lowerBounds()).cwiseMax(1e-12);
-  r.candidates.push_back({r.u, r.evaluation});
-  for (int j = 0;
-       j < r.de.population.cols() && static_cast<int>(r.candidates.size()) < options.num_candidates;
-       ++j) {
-    const Eigen::VectorXd x = r.de.population.col(j);
-    bool distinct = true;
-    for (const auto& c : r.candidates)
-      if (((x - c.u).cwiseQuotient(range)).norm() < 1e-3) distinct = false;
-    if (!distinct) continue;
-    Candidate c{x, {}};
-    model.evaluate(x, c.evaluation);
-    if (c.evaluation.valid) r.candidates.push_back(std::move(c));
-  }
-
+  PlannerResult& r = run.result;
   r.binding = findBindingClasses(r.evaluation, settings_.polish_backoff);
   r.summary = summarizeEvaluation(r.evaluation, r.binding);
   if (r.evaluation.valid) r.plan = model.buildPlan(r.u, &r.evaluation);
   r.total_ms = msSince(t_start);
-  return r;
+  return std::move(r);
 }
 
 }  // namespace wj::planner

@@ -262,6 +262,48 @@ Setter choice(Enum& target, const std::map<std::string, Enum>& names) {
   };
 }
 
+// The "de" section: the solver's settings and the planner's restarts and warm-start cloud.
+void readDe(const YAML::Node& n, PlannerSettings& s) {
+  auto& d = s.de;
+  readSection(
+      n, "de",
+      {{"population_size", integer(d.population_size)},
+       {"strategy", choice(d.strategy,
+                           std::map<std::string, de::Strategy>{
+                               {"rand1bin", de::Strategy::Rand1Bin},
+                               {"best1bin", de::Strategy::Best1Bin},
+                               {"current_to_best1bin", de::Strategy::CurrentToBest1Bin},
+                               {"rand2bin", de::Strategy::Rand2Bin},
+                               {"current_to_pbest1bin", de::Strategy::CurrentToPBest1Bin}})},
+       {"adaptation",
+        choice(d.adaptation,
+               std::map<std::string, de::Adaptation>{{"none", de::Adaptation::None},
+                                                     {"jde", de::Adaptation::JDE},
+                                                     {"shade", de::Adaptation::SHADE}})},
+       {"initialization",
+        choice(d.initialization,
+               std::map<std::string, de::Initialization>{
+                   {"uniform", de::Initialization::Uniform},
+                   {"latin_hypercube", de::Initialization::LatinHypercube},
+                   {"opposition_based", de::Initialization::OppositionBased}})},
+       {"F", number(d.F)},
+       {"CR", number(d.CR)},
+       {"p_best", number(d.p_best)},
+       {"max_generations", integer(d.max_generations)},
+       {"max_evaluations", [&](const YAML::Node& v) { d.max_evaluations = v.as<std::int64_t>(); }},
+       {"time_budget_s", number(d.time_budget_s)},
+       {"tolerance", number(d.tolerance)},
+       {"stagnation_generations", integer(d.stagnation_generations)},
+       {"stagnation_tolerance", number(d.stagnation_tolerance)},
+       {"target_cost", number(d.target_cost)},
+       {"bounded_trials", [&](const YAML::Node& v) { d.bounded_trials = v.as<bool>(); }},
+       {"restarts", integer(s.de_restarts)},
+       {"warm_start_cloud", integer(s.warm_start_cloud)},
+       {"warm_start_spread", number(s.warm_start_spread)},
+       {"threads", integer(d.threads)},
+       {"seed", [&](const YAML::Node& v) { d.seed = v.as<std::uint64_t>(); }}});
+}
+
 PlannerSettings parse(const YAML::Node& root) {
   PlannerSettings s;
   if (!root || root.IsNull()) return s;
@@ -354,48 +396,7 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"tolerance_pitch_rad", number(s.tolerance_pitch_rad)},
                       {"landing_pitch_tolerance_rad", number(s.landing_pitch_tolerance_rad)}});
        }},
-      {"de",
-       [&](const YAML::Node& n) {
-         auto& d = s.de;
-         readSection(
-             n, "de",
-             {{"population_size", integer(d.population_size)},
-              {"strategy", choice(d.strategy,
-                                  std::map<std::string, de::Strategy>{
-                                      {"rand1bin", de::Strategy::Rand1Bin},
-                                      {"best1bin", de::Strategy::Best1Bin},
-                                      {"current_to_best1bin", de::Strategy::CurrentToBest1Bin},
-                                      {"rand2bin", de::Strategy::Rand2Bin},
-                                      {"current_to_pbest1bin", de::Strategy::CurrentToPBest1Bin}})},
-              {"adaptation",
-               choice(d.adaptation,
-                      std::map<std::string, de::Adaptation>{{"none", de::Adaptation::None},
-                                                            {"jde", de::Adaptation::JDE},
-                                                            {"shade", de::Adaptation::SHADE}})},
-              {"initialization",
-               choice(d.initialization,
-                      std::map<std::string, de::Initialization>{
-                          {"uniform", de::Initialization::Uniform},
-                          {"latin_hypercube", de::Initialization::LatinHypercube},
-                          {"opposition_based", de::Initialization::OppositionBased}})},
-              {"F", number(d.F)},
-              {"CR", number(d.CR)},
-              {"p_best", number(d.p_best)},
-              {"max_generations", integer(d.max_generations)},
-              {"max_evaluations",
-               [&](const YAML::Node& v) { d.max_evaluations = v.as<std::int64_t>(); }},
-              {"time_budget_s", number(d.time_budget_s)},
-              {"tolerance", number(d.tolerance)},
-              {"stagnation_generations", integer(d.stagnation_generations)},
-              {"stagnation_tolerance", number(d.stagnation_tolerance)},
-              {"target_cost", number(d.target_cost)},
-              {"bounded_trials", [&](const YAML::Node& v) { d.bounded_trials = v.as<bool>(); }},
-              {"restarts", integer(s.de_restarts)},
-              {"warm_start_cloud", integer(s.warm_start_cloud)},
-              {"warm_start_spread", number(s.warm_start_spread)},
-              {"threads", integer(d.threads)},
-              {"seed", [&](const YAML::Node& v) { d.seed = v.as<std::uint64_t>(); }}});
-       }},
+      {"de", [&](const YAML::Node& n) { readDe(n, s); }},
       {"polish",
        [&](const YAML::Node& n) {
          readSection(

@@ -194,6 +194,14 @@ RobotPlacement calcPlacement(const model::RobotModel& model, const InitialState&
 }
 
 //==============================================================================================
+VerifierSettings VerifierSettings::reference() {
+  // The reference integrator of docs/sim.md, "Integrator": Runge-Kutta-Merson at 1e-5.
+  VerifierSettings s;
+  s.sim.integrator.kind = IntegratorKind::RungeKuttaMerson;
+  s.sim.integrator.accuracy = 1e-5;
+  return s;
+}
+
 Verifier::Verifier(model::RobotModel model, VerifierSettings settings)
     : model_(std::move(model)), settings_(std::move(settings)) {
   settings_.sim.validate();
@@ -205,167 +213,220 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Scenari
   return verify(plan, initialStateFromPlan(model_, plan), scenario, telemetry);
 }
 
-VerificationReport Verifier::verify(const planner::JumpPlan& plan, const InitialState& initial,
-                                    const Scenario& scenario,
-                                    const TelemetryCallback& telemetry) const {
-  VerificationReport r;
-  Verdict verdict(r);
-  const AcceptanceCriteria& acc = settings_.acceptance;
-  if (const std::string problem = checkPlan(plan); !problem.empty()) {
-    verdict.fail(FailureReason::InvalidPlan, "invalid plan: " + problem);
-    return r;
-  }
+namespace {
 
-  SimSettings sim_settings = settings_.sim;
-  sim_settings.terrain = scenario.terrain;
-  SimRobot robot(model_, sim_settings);
+// One verification after the plan is checked: the robot placed, the plan run to its end with
+// every quantity the criteria need recorded per control step, then the verdict. The steps fill
+// the report.
+class VerificationRun {
+ public:
+  VerificationRun(const model::RobotModel& model, const VerifierSettings& settings,
+                  const planner::JumpPlan& plan, const Scenario& scenario, double gravity,
+                  VerificationReport& r)
+      : model_(model),
+        settings_(settings),
+        acc_(settings.acceptance),
+        plan_(plan),
+        scenario_(scenario),
+        slope_(scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0),
+        r_(r),
+        verdict_(r),
+        gravity_(gravity) {}
 
-  // Place the robot; then correct the base velocity so that the CoM moves as requested even
+  // Places the robot; then corrects the base velocity so that the CoM moves as requested even
   // when the legs move (a common base velocity offset shifts the CoM velocity by the same).
-  RobotPlacement placement = calcPlacement(model_, initial, scenario.terrain);
-  r.initial_ground_gap_m = wheelGap(model_, placement, scenario.terrain);
-  if (!(std::abs(r.initial_ground_gap_m) <= acc.initial_gap_tolerance_m)) {
-    verdict.fail(FailureReason::InvalidInitialState,
-                 strf("the initial CoM height puts the lowest wheel %.4f m from the "
-                      "terrain (tolerance %.4f m)",
-                      r.initial_ground_gap_m, acc.initial_gap_tolerance_m));
-    return r;
+  // False (and the verdict) when the initial state does not put the wheels on the terrain.
+  bool place(SimRobot& robot, const InitialState& initial);
+  // Runs the plan until the executor is done, the stop time, the robot at rest or a
+  // simulation error.
+  void simulate(SimRobot& robot, PlanExecutor& executor, const TelemetryCallback& telemetry);
+  // The verdict, most fundamental first.
+  void judge();
+
+ private:
+  // Events: take-off = last contact before the airborne interval, touchdown = first
+  // contact after it, apex = highest CoM in between.
+  void recordFlight(const GroundTruth& gt, bool contact, const PlanExecutor& executor);
+  // Drives and joints: torque envelope, speeds, position limits.
+  void recordDrives(const GroundTruth& gt, JumpPhase phase);
+  void recordContacts(const GroundTruth& gt);
+  // The landing state in the report's end-of-run fields: at the end of the run, and at every
+  // landing step to find the robot at rest.
+  void recordFinalState(const GroundTruth& g, double pitch_now);
+  // Every end-of-run bound on the landing holds at this step.
+  bool atRest(const GroundTruth& g, double pitch_now);
+  void judgeDrives();
+  void judgeContacts();
+  void judgeLanding();
+  void judgeTargets();
+
+  const model::RobotModel& model_;
+  const VerifierSettings& settings_;
+  const AcceptanceCriteria& acc_;
+  const planner::JumpPlan& plan_;
+  const Scenario& scenario_;
+  const double slope_;
+  VerificationReport& r_;
+  Verdict verdict_;
+  const double gravity_;
+
+  GroundTruth gt_;
+  double pitch_ = 0.0;
+  planner::JumpEvent last_contact_;
+  int limit_joint_ = -1;
+  double limit_time_ = 0.0;
+  int speed_joint_ = -1;
+  double speed_time_ = 0.0;
+  double envelope_time_ = 0.0;
+  double first_obstacle_contact_ = kInf;
+  double first_base_contact_ = kInf, first_leg_contact_ = kInf;
+};
+
+bool VerificationRun::place(SimRobot& robot, const InitialState& initial) {
+  RobotPlacement placement = calcPlacement(model_, initial, scenario_.terrain);
+  r_.initial_ground_gap_m = wheelGap(model_, placement, scenario_.terrain);
+  if (!(std::abs(r_.initial_ground_gap_m) <= acc_.initial_gap_tolerance_m)) {
+    verdict_.fail(FailureReason::InvalidInitialState,
+                  strf("the initial CoM height puts the lowest wheel %.4f m from the "
+                       "terrain (tolerance %.4f m)",
+                       r_.initial_ground_gap_m, acc_.initial_gap_tolerance_m));
+    return false;
   }
-  GroundTruth gt;
   robot.reset(placement);
-  robot.calcGroundTruth(gt, false);
+  robot.calcGroundTruth(gt_, false);
   {
-    const double slope = scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0;
+    const double slope = scenario_.terrain.has_ground ? scenario_.terrain.slope_rad : 0.0;
     const Eigen::Vector3d along(std::cos(slope), 0.0, std::sin(slope));
     const Eigen::Vector3d normal(-std::sin(slope), 0.0, std::cos(slope));
     const Eigen::Vector3d v_WC = initial.com.vx * along + initial.com.vz * normal;
-    placement.v_WB += v_WC - gt.v_WC;
+    placement.v_WB += v_WC - gt_.v_WC;
   }
   robot.reset(placement);
+  return true;
+}
 
-  PlanExecutor executor(model_, plan, settings_.executor, sim_settings.gravity_m_s2);
-  const double stop_time = plan.t3 + settings_.executor.max_flight_overrun_s +
+void VerificationRun::recordFinalState(const GroundTruth& g, double pitch_now) {
+  r_.final_time_s = g.t;
+  r_.final_base_height_m = calcTerrainDistance(scenario_.terrain, g.X_WB.translation());
+  r_.final_rotation_rad = pitch_now - slope_;
+  r_.final_pitch_rad = foldAngle(pitch_now - slope_);
+  r_.final_roll_rad = rollOf(g.X_WB.linear());
+  r_.final_angular_speed_rad_s = g.w_WB.norm();
+}
+
+bool VerificationRun::atRest(const GroundTruth& g, double pitch_now) {
+  recordFinalState(g, pitch_now);
+  return std::abs(r_.final_pitch_rad) <= acc_.max_final_pitch_rad &&
+         std::abs(r_.final_roll_rad) <= acc_.max_final_roll_rad &&
+         std::abs(r_.final_base_height_m - r_.nominal_base_height_m) <=
+             acc_.base_height_tolerance_m &&
+         r_.final_angular_speed_rad_s <= acc_.max_final_angular_speed_rad_s && !g.base_in_contact;
+}
+
+void VerificationRun::recordFlight(const GroundTruth& gt, bool contact,
+                                   const PlanExecutor& executor) {
+  if (executor.wasAirborne() && !r_.took_off) {
+    r_.took_off = true;
+    r_.measured.takeoff = last_contact_;
+    r_.measured.apex = last_contact_;
+  }
+  if (r_.took_off && !r_.touched_down) {
+    if (contact) {
+      r_.touched_down = true;
+      r_.measured.touchdown = makeEvent(gt, pitch_);
+    } else {
+      if (gt.p_WC.z() > r_.measured.apex.state.z) r_.measured.apex = makeEvent(gt, pitch_);
+      r_.max_base_z_m = std::max(r_.max_base_z_m, gt.X_WB.translation().z());
+    }
+  }
+}
+
+void VerificationRun::recordDrives(const GroundTruth& gt, JumpPhase phase) {
+  const double t = gt.t;
+  const bool checked_phase = phase == JumpPhase::Takeoff;  // take-off: the envelope ratio counts
+  // Speeds count until touchdown: what the plan commands. The landing impact back-drives the
+  // wheels of a robot rolling at 3 m/s (35 rad/s of 40) past their no-load speed whatever the
+  // plan; those peaks stay in the per-joint metrics.
+  // In flight the wheels spin freely (no drive), so only the leg joints count then.
+  const bool speed_checked = phase != JumpPhase::Landing;
+  const bool wheels_driven = phase == JumpPhase::Takeoff;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    const model::JointSpec& spec = model_.joints()[j];
+    JointMetrics& m = r_.joints[j];
+    const double limit = spec.actuator.torqueLimit(gt.qd[j]);
+    const double demand = std::abs(gt.tau_demand[j]);
+    const double ratio = limit > 0.0 ? demand / limit : (demand > 0.0 ? kInf : 0.0);
+    const double speed_ratio = std::abs(gt.qd[j]) / spec.actuator.no_load_speed_rad_s;
+    m.max_abs_torque_nm = std::max(m.max_abs_torque_nm, std::abs(gt.tau[j]));
+    m.max_abs_demand_nm = std::max(m.max_abs_demand_nm, demand);
+    m.max_abs_speed_rad_s = std::max(m.max_abs_speed_rad_s, std::abs(gt.qd[j]));
+    m.max_envelope_ratio = std::max(m.max_envelope_ratio, ratio);
+    m.max_speed_ratio = std::max(m.max_speed_ratio, speed_ratio);
+    m.min_q_rad = std::min(m.min_q_rad, gt.q[j]);
+    m.max_q_rad = std::max(m.max_q_rad, gt.q[j]);
+    if (checked_phase && ratio > r_.max_envelope_ratio) {
+      r_.max_envelope_ratio = ratio;
+      r_.worst_envelope_joint = j;
+      envelope_time_ = t;
+    }
+    const bool drive_speed_counts =
+        speed_checked && (wheels_driven || spec.kind != model::JointKind::Wheel);
+    if (drive_speed_counts && speed_ratio > r_.max_speed_ratio) {
+      r_.max_speed_ratio = speed_ratio;
+      speed_joint_ = j;
+      speed_time_ = t;
+    }
+    if (limit_joint_ < 0 && !spec.continuous &&
+        (gt.q[j] < spec.lower_rad - acc_.joint_limit_tolerance_rad ||
+         gt.q[j] > spec.upper_rad + acc_.joint_limit_tolerance_rad)) {
+      limit_joint_ = j;
+      limit_time_ = t;
+    }
+  }
+}
+
+void VerificationRun::recordContacts(const GroundTruth& gt) {
+  const double t = gt.t;
+  r_.measured.min_obstacle_clearance =
+      std::min(r_.measured.min_obstacle_clearance, gt.obstacle_clearance_m);
+  if (gt.obstacle_clearance_m < 0.0) first_obstacle_contact_ = std::min(first_obstacle_contact_, t);
+  if (gt.base_in_contact) first_base_contact_ = std::min(first_base_contact_, t);
+  if (gt.legs_in_contact) first_leg_contact_ = std::min(first_leg_contact_, t);
+}
+
+void VerificationRun::simulate(SimRobot& robot, PlanExecutor& executor,
+                               const TelemetryCallback& telemetry) {
+  const double stop_time = plan_.t3 + settings_.executor.max_flight_overrun_s +
                            settings_.executor.landing_duration_s + 1.0;
-
   model::SensorData sensors;
   model::JointCommands commands{};
-  double pitch = 0.0;
-  planner::JumpEvent last_contact;
-  bool checked_phase = true;  // take-off: the envelope ratio counts
-  int limit_joint = -1;
-  double limit_time = 0.0;
-  int speed_joint = -1;
-  double speed_time = 0.0;
-  double envelope_time = 0.0;
-  double first_obstacle_contact = kInf;
-  double first_base_contact = kInf, first_leg_contact = kInf;
-  r.measured.min_obstacle_clearance = kInf;
-  const double slope = scenario.terrain.has_ground ? scenario.terrain.slope_rad : 0.0;
-  r.nominal_base_height_m =
-      calcStandingStatics(model_, plan.q_landing, sim_settings.gravity_m_s2).base_height_m;
-  // The landing state in the report's end-of-run fields: at the end of the run, and at every
-  // landing step to find the robot at rest.
-  auto recordFinalState = [&](const GroundTruth& g, double pitch_now) {
-    r.final_time_s = g.t;
-    r.final_base_height_m = calcTerrainDistance(scenario.terrain, g.X_WB.translation());
-    r.final_rotation_rad = pitch_now - slope;
-    r.final_pitch_rad = foldAngle(pitch_now - slope);
-    r.final_roll_rad = rollOf(g.X_WB.linear());
-    r.final_angular_speed_rad_s = g.w_WB.norm();
-  };
-  // Every end-of-run bound on the landing holds at this step.
-  auto at_rest = [&](const GroundTruth& g, double pitch_now) {
-    recordFinalState(g, pitch_now);
-    return std::abs(r.final_pitch_rad) <= acc.max_final_pitch_rad &&
-           std::abs(r.final_roll_rad) <= acc.max_final_roll_rad &&
-           std::abs(r.final_base_height_m - r.nominal_base_height_m) <=
-               acc.base_height_tolerance_m &&
-           r.final_angular_speed_rad_s <= acc.max_final_angular_speed_rad_s && !g.base_in_contact;
-  };
   double at_rest_since = kInf;
+  GroundTruth& gt = gt_;
+  r_.measured.min_obstacle_clearance = kInf;
+  r_.nominal_base_height_m = calcStandingStatics(model_, plan_.q_landing, gravity_).base_height_m;
   for (;;) {
     robot.read(sensors);
     robot.calcGroundTruth(gt, static_cast<bool>(telemetry));
     const double t = gt.t;
-    pitch = calcUnwrappedPitch(gt.X_WB.linear(), pitch);
+    pitch_ = calcUnwrappedPitch(gt.X_WB.linear(), pitch_);
     bool contact = false;
     for (const auto& w : gt.wheels) contact = contact || w.in_contact;
 
-    // Events: take-off = last contact before the airborne interval, touchdown = first
-    // contact after it, apex = highest CoM in between.
-    if (!executor.wasAirborne() && contact) last_contact = makeEvent(gt, pitch);
+    if (!executor.wasAirborne() && contact) last_contact_ = makeEvent(gt, pitch_);
     executor.update(t, sensors, contact, commands);
-    if (executor.wasAirborne() && !r.took_off) {
-      r.took_off = true;
-      r.measured.takeoff = last_contact;
-      r.measured.apex = last_contact;
-    }
-    if (r.took_off && !r.touched_down) {
-      if (contact) {
-        r.touched_down = true;
-        r.measured.touchdown = makeEvent(gt, pitch);
-      } else {
-        if (gt.p_WC.z() > r.measured.apex.state.z) r.measured.apex = makeEvent(gt, pitch);
-        r.max_base_z_m = std::max(r.max_base_z_m, gt.X_WB.translation().z());
-      }
-    }
-    checked_phase = executor.phase() == JumpPhase::Takeoff;
-    // Speeds count until touchdown: what the plan commands. The landing impact back-drives the
-    // wheels of a robot rolling at 3 m/s (35 rad/s of 40) past their no-load speed whatever the
-    // plan; those peaks stay in the per-joint metrics.
-    // In flight the wheels spin freely (no drive), so only the leg joints count then.
-    const bool speed_checked = executor.phase() != JumpPhase::Landing;
-    const bool wheels_driven = executor.phase() == JumpPhase::Takeoff;
-
-    // Drives and joints.
-    for (int j = 0; j < model::kNumJoints; ++j) {
-      const model::JointSpec& spec = model_.joints()[j];
-      JointMetrics& m = r.joints[j];
-      const double limit = spec.actuator.torqueLimit(gt.qd[j]);
-      const double demand = std::abs(gt.tau_demand[j]);
-      const double ratio = limit > 0.0 ? demand / limit : (demand > 0.0 ? kInf : 0.0);
-      const double speed_ratio = std::abs(gt.qd[j]) / spec.actuator.no_load_speed_rad_s;
-      m.max_abs_torque_nm = std::max(m.max_abs_torque_nm, std::abs(gt.tau[j]));
-      m.max_abs_demand_nm = std::max(m.max_abs_demand_nm, demand);
-      m.max_abs_speed_rad_s = std::max(m.max_abs_speed_rad_s, std::abs(gt.qd[j]));
-      m.max_envelope_ratio = std::max(m.max_envelope_ratio, ratio);
-      m.max_speed_ratio = std::max(m.max_speed_ratio, speed_ratio);
-      m.min_q_rad = std::min(m.min_q_rad, gt.q[j]);
-      m.max_q_rad = std::max(m.max_q_rad, gt.q[j]);
-      if (checked_phase && ratio > r.max_envelope_ratio) {
-        r.max_envelope_ratio = ratio;
-        r.worst_envelope_joint = j;
-        envelope_time = t;
-      }
-      const bool drive_speed_counts =
-          speed_checked && (wheels_driven || spec.kind != model::JointKind::Wheel);
-      if (drive_speed_counts && speed_ratio > r.max_speed_ratio) {
-        r.max_speed_ratio = speed_ratio;
-        speed_joint = j;
-        speed_time = t;
-      }
-      if (limit_joint < 0 && !spec.continuous &&
-          (gt.q[j] < spec.lower_rad - acc.joint_limit_tolerance_rad ||
-           gt.q[j] > spec.upper_rad + acc.joint_limit_tolerance_rad)) {
-        limit_joint = j;
-        limit_time = t;
-      }
-    }
-    r.measured.min_obstacle_clearance =
-        std::min(r.measured.min_obstacle_clearance, gt.obstacle_clearance_m);
-    if (gt.obstacle_clearance_m < 0.0) first_obstacle_contact = std::min(first_obstacle_contact, t);
-    if (gt.base_in_contact) first_base_contact = std::min(first_base_contact, t);
-    if (gt.legs_in_contact) first_leg_contact = std::min(first_leg_contact, t);
+    recordFlight(gt, contact, executor);
+    recordDrives(gt, executor.phase());
+    recordContacts(gt);
     if (telemetry) telemetry(makeSample(gt, executor.phase()));
 
     if (executor.finished(t) || t >= stop_time) break;
-    if (acc.settle_window_s > 0.0 && executor.phase() == JumpPhase::Landing && r.touched_down) {
-      if (!at_rest(gt, pitch)) {
+    if (acc_.settle_window_s > 0.0 && executor.phase() == JumpPhase::Landing && r_.touched_down) {
+      if (!atRest(gt, pitch_)) {
         at_rest_since = kInf;
       } else if (at_rest_since == kInf) {
         at_rest_since = t;
-      } else if (t - at_rest_since >= acc.settle_window_s) {
-        r.settled_early = true;
+      } else if (t - at_rest_since >= acc_.settle_window_s) {
+        r_.settled_early = true;
         break;
       }
     }
@@ -373,86 +434,126 @@ VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Initial
     try {
       robot.advance();
     } catch (const std::exception& e) {
-      verdict.fail(FailureReason::SimulationError, e.what());
+      verdict_.fail(FailureReason::SimulationError, e.what());
       break;
     }
   }
-  r.integrator_steps = robot.integratorStats().steps_taken;
-  r.integrator_realizations = robot.integratorStats().realizations;
+  r_.integrator_steps = robot.integratorStats().steps_taken;
+  r_.integrator_realizations = robot.integratorStats().realizations;
 
   // Landing state at the end of the run.
-  recordFinalState(gt, pitch);
-  r.base_contact = first_base_contact < kInf;
-  r.leg_contact = first_leg_contact < kInf;
+  recordFinalState(gt, pitch_);
+  r_.base_contact = first_base_contact_ < kInf;
+  r_.leg_contact = first_leg_contact_ < kInf;
+}
 
-  // Verdict, most fundamental first.
-  if (!r.took_off)
-    verdict.fail(FailureReason::NoTakeoff, "the wheels never left the ground");
-  else if (!r.touched_down)
-    verdict.fail(FailureReason::NoTouchdown, strf("no touchdown within %.3f s after t3",
-                                                  settings_.executor.max_flight_overrun_s));
-  if (r.max_envelope_ratio > acc.max_envelope_ratio) {
-    const model::JointSpec& j = model_.joints()[r.worst_envelope_joint];
-    verdict.fail(FailureReason::TorqueLimit,
-                 strf("%s demands %.2f x its torque limit at t = %.3f s (allowed "
-                      "%.2f)",
-                      j.name.c_str(), r.max_envelope_ratio, envelope_time, acc.max_envelope_ratio));
+void VerificationRun::judgeDrives() {
+  if (r_.max_envelope_ratio > acc_.max_envelope_ratio) {
+    const model::JointSpec& j = model_.joints()[r_.worst_envelope_joint];
+    verdict_.fail(
+        FailureReason::TorqueLimit,
+        strf("%s demands %.2f x its torque limit at t = %.3f s (allowed "
+             "%.2f)",
+             j.name.c_str(), r_.max_envelope_ratio, envelope_time_, acc_.max_envelope_ratio));
   }
-  if (r.max_speed_ratio > acc.max_speed_ratio)
-    verdict.fail(FailureReason::SpeedLimit,
-                 strf("%s turns at %.2f x its no-load speed at t = %.3f s",
-                      model_.joints()[speed_joint].name.c_str(), r.max_speed_ratio, speed_time));
-  if (limit_joint >= 0)
-    verdict.fail(FailureReason::JointLimit,
-                 strf("%s leaves its position range at t = %.3f s",
-                      model_.joints()[limit_joint].name.c_str(), limit_time));
-  if (first_obstacle_contact < kInf)
-    verdict.fail(FailureReason::ObstacleCollision,
-                 strf("the robot hits the obstacle at t = %.3f s (min clearance "
-                      "%.4f m)",
-                      first_obstacle_contact, r.measured.min_obstacle_clearance));
-  if (r.base_contact)
-    verdict.fail(FailureReason::BaseContact,
-                 strf("the base touches the terrain at t = %.3f s", first_base_contact));
-  if (r.leg_contact)
-    verdict.fail(FailureReason::LegContact,
-                 strf("a leg touches the terrain at t = %.3f s", first_leg_contact));
-  const bool pitch_ok = std::abs(r.final_pitch_rad) <= acc.max_final_pitch_rad;
-  const bool roll_ok = std::abs(r.final_roll_rad) <= acc.max_final_roll_rad;
+  if (r_.max_speed_ratio > acc_.max_speed_ratio)
+    verdict_.fail(
+        FailureReason::SpeedLimit,
+        strf("%s turns at %.2f x its no-load speed at t = %.3f s",
+             model_.joints()[speed_joint_].name.c_str(), r_.max_speed_ratio, speed_time_));
+  if (limit_joint_ >= 0)
+    verdict_.fail(FailureReason::JointLimit,
+                  strf("%s leaves its position range at t = %.3f s",
+                       model_.joints()[limit_joint_].name.c_str(), limit_time_));
+}
+
+void VerificationRun::judgeContacts() {
+  if (first_obstacle_contact_ < kInf)
+    verdict_.fail(FailureReason::ObstacleCollision,
+                  strf("the robot hits the obstacle at t = %.3f s (min clearance "
+                       "%.4f m)",
+                       first_obstacle_contact_, r_.measured.min_obstacle_clearance));
+  if (r_.base_contact)
+    verdict_.fail(FailureReason::BaseContact,
+                  strf("the base touches the terrain at t = %.3f s", first_base_contact_));
+  if (r_.leg_contact)
+    verdict_.fail(FailureReason::LegContact,
+                  strf("a leg touches the terrain at t = %.3f s", first_leg_contact_));
+}
+
+void VerificationRun::judgeLanding() {
+  const bool pitch_ok = std::abs(r_.final_pitch_rad) <= acc_.max_final_pitch_rad;
+  const bool roll_ok = std::abs(r_.final_roll_rad) <= acc_.max_final_roll_rad;
   const bool height_ok =
-      std::abs(r.final_base_height_m - r.nominal_base_height_m) <= acc.base_height_tolerance_m;
-  r.landed_upright = r.touched_down && pitch_ok && roll_ok && height_ok && !r.base_contact;
+      std::abs(r_.final_base_height_m - r_.nominal_base_height_m) <= acc_.base_height_tolerance_m;
+  r_.landed_upright = r_.touched_down && pitch_ok && roll_ok && height_ok && !r_.base_contact;
   if (!pitch_ok || !roll_ok)
-    verdict.fail(
-        FailureReason::NotUpright,
-        strf("at the end pitch is %.3f rad and roll %.3f rad (allowed "
-             "%.3f, %.3f)",
-             r.final_pitch_rad, r.final_roll_rad, acc.max_final_pitch_rad, acc.max_final_roll_rad));
+    verdict_.fail(FailureReason::NotUpright,
+                  strf("at the end pitch is %.3f rad and roll %.3f rad (allowed "
+                       "%.3f, %.3f)",
+                       r_.final_pitch_rad, r_.final_roll_rad, acc_.max_final_pitch_rad,
+                       acc_.max_final_roll_rad));
   if (!height_ok)
-    verdict.fail(FailureReason::BaseHeight,
-                 strf("at the end the base is %.3f m above the terrain, standing "
-                      "height %.3f m +- %.3f m",
-                      r.final_base_height_m, r.nominal_base_height_m, acc.base_height_tolerance_m));
-  if (r.final_angular_speed_rad_s > acc.max_final_angular_speed_rad_s)
-    verdict.fail(FailureReason::NotSettled, strf("at the end the base still turns at %.3f rad/s",
-                                                 r.final_angular_speed_rad_s));
-  if (r.took_off) {
-    r.apex_height_error_m = r.measured.apex.state.z - plan.predicted.apex.state.z;
-    if (std::abs(r.apex_height_error_m) > acc.max_apex_height_error_m)
-      verdict.fail(FailureReason::TargetMissed,
-                   strf("the apex is %+.3f m off the prediction", r.apex_height_error_m));
+    verdict_.fail(
+        FailureReason::BaseHeight,
+        strf("at the end the base is %.3f m above the terrain, standing "
+             "height %.3f m +- %.3f m",
+             r_.final_base_height_m, r_.nominal_base_height_m, acc_.base_height_tolerance_m));
+  if (r_.final_angular_speed_rad_s > acc_.max_final_angular_speed_rad_s)
+    verdict_.fail(FailureReason::NotSettled, strf("at the end the base still turns at %.3f rad/s",
+                                                  r_.final_angular_speed_rad_s));
+}
+
+void VerificationRun::judgeTargets() {
+  if (r_.took_off) {
+    r_.apex_height_error_m = r_.measured.apex.state.z - plan_.predicted.apex.state.z;
+    if (std::abs(r_.apex_height_error_m) > acc_.max_apex_height_error_m)
+      verdict_.fail(FailureReason::TargetMissed,
+                    strf("the apex is %+.3f m off the prediction", r_.apex_height_error_m));
   }
-  if (r.touched_down) {
-    r.touchdown_dx_error_m = r.measured.touchdown.state.x - plan.predicted.touchdown.state.x;
-    r.touchdown_pitch_error_rad =
-        r.measured.touchdown.state.pitch - plan.predicted.touchdown.state.pitch;
-    if (std::abs(r.touchdown_dx_error_m) > acc.max_touchdown_dx_error_m ||
-        std::abs(r.touchdown_pitch_error_rad) > acc.max_touchdown_pitch_error_rad)
-      verdict.fail(FailureReason::TargetMissed,
-                   strf("touchdown is %+.3f m and %+.3f rad off the prediction",
-                        r.touchdown_dx_error_m, r.touchdown_pitch_error_rad));
+  if (r_.touched_down) {
+    r_.touchdown_dx_error_m = r_.measured.touchdown.state.x - plan_.predicted.touchdown.state.x;
+    r_.touchdown_pitch_error_rad =
+        r_.measured.touchdown.state.pitch - plan_.predicted.touchdown.state.pitch;
+    if (std::abs(r_.touchdown_dx_error_m) > acc_.max_touchdown_dx_error_m ||
+        std::abs(r_.touchdown_pitch_error_rad) > acc_.max_touchdown_pitch_error_rad)
+      verdict_.fail(FailureReason::TargetMissed,
+                    strf("touchdown is %+.3f m and %+.3f rad off the prediction",
+                         r_.touchdown_dx_error_m, r_.touchdown_pitch_error_rad));
   }
-  r.passed = r.failures.empty();
+}
+
+void VerificationRun::judge() {
+  if (!r_.took_off)
+    verdict_.fail(FailureReason::NoTakeoff, "the wheels never left the ground");
+  else if (!r_.touched_down)
+    verdict_.fail(FailureReason::NoTouchdown, strf("no touchdown within %.3f s after t3",
+                                                   settings_.executor.max_flight_overrun_s));
+  judgeDrives();
+  judgeContacts();
+  judgeLanding();
+  judgeTargets();
+  r_.passed = r_.failures.empty();
+}
+
+}  // namespace
+
+VerificationReport Verifier::verify(const planner::JumpPlan& plan, const InitialState& initial,
+                                    const Scenario& scenario,
+                                    const TelemetryCallback& telemetry) const {
+  VerificationReport r;
+  if (const std::string problem = checkPlan(plan); !problem.empty()) {
+    Verdict(r).fail(FailureReason::InvalidPlan, "invalid plan: " + problem);
+    return r;
+  }
+  SimSettings sim_settings = settings_.sim;
+  sim_settings.terrain = scenario.terrain;
+  SimRobot robot(model_, sim_settings);
+  VerificationRun run(model_, settings_, plan, scenario, sim_settings.gravity_m_s2, r);
+  if (!run.place(robot, initial)) return r;
+  PlanExecutor executor(model_, plan, settings_.executor, sim_settings.gravity_m_s2);
+  run.simulate(robot, executor, telemetry);
+  run.judge();
   return r;
 }
 

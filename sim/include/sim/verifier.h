@@ -103,6 +103,11 @@ struct VerifierSettings {
   SimSettings sim;                ///< physics (its terrain is replaced by the scenario's)
   ExecutorSettings executor;      ///< gains and timing of the plan execution
   AcceptanceCriteria acceptance;  ///< pass/fail bounds
+
+  /// The slower setting the defaults are measured against (bench_verify --compare,
+  /// docs/sim.md "Cost of one verification"): the same checks with the reference integrator
+  /// (Runge-Kutta-Merson, accuracy 1e-5).
+  static VerifierSettings reference();
 };
 
 /// The world of one verification.

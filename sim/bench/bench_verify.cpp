@@ -1,0 +1,204 @@
+// bench_verify: the verification of the service's candidates, timed and compared with the
+// reference setting of the verifier (issue 21 item 3). For each case (the cold requests of
+// bench_server: standing vertical jumps to apex heights 0.40 + 0.015 i; and the planner's
+// presets) the planner runs once (seeded, one thread); its best `--candidates` distinct
+// candidates become plans as the server builds them and each is verified `--runs` times with
+// the verifier's default settings; with `--compare` also once with the reference settings
+// (VerifierSettings::reference()), and the verdicts and measured quantities are compared.
+// Prints JSON.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <ctime>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "planner/presets.h"
+#include "sim/verifier.h"
+
+namespace {
+
+namespace pl = wj::planner;
+namespace sm = wj::sim;
+using Clock = std::chrono::steady_clock;
+
+double threadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// bench_server's cold request i: standing still, legs at (0, 1, -2, 0), apex target height.
+pl::Scenario standingCase(const wj::model::RobotModel& robot, int i) {
+  pl::Scenario sc;
+  sc.name = "standing_" + std::to_string(i);
+  for (const wj::model::Leg leg : wj::model::kLegs) {
+    sc.initial.q[wj::model::jointIndex(leg, wj::model::JointKind::HFE)] = 1.0;
+    sc.initial.q[wj::model::jointIndex(leg, wj::model::JointKind::KFE)] = -2.0;
+  }
+  sc.initial.validate(robot);
+  sc.task.target.height = 0.40 + 0.015 * i;
+  sc.task.target.event = pl::TargetEvent::Apex;
+  sc.task.mode = pl::TakeoffMode::Simultaneous;
+  return sc;
+}
+
+nlohmann::json eventJson(const wj::planner::JumpEvent& e) {
+  return {{"t", e.t},         {"x", e.state.x},  {"z", e.state.z}, {"pitch", e.state.pitch},
+          {"vx", e.state.vx}, {"vz", e.state.vz}};
+}
+
+nlohmann::json reportJson(const sm::VerificationReport& r) {
+  nlohmann::json failures = nlohmann::json::array();
+  for (const sm::FailureReason f : r.failures.toVector()) failures.push_back(sm::toString(f));
+  return {{"passed", r.passed},
+          {"failures", failures},
+          {"simulated_s", r.final_time_s},
+          {"settled_early", r.settled_early},
+          {"integrator_steps", r.integrator_steps},
+          {"takeoff", eventJson(r.measured.takeoff)},
+          {"apex", eventJson(r.measured.apex)},
+          {"touchdown", eventJson(r.measured.touchdown)},
+          {"max_envelope_ratio", r.max_envelope_ratio},
+          {"max_speed_ratio", r.max_speed_ratio},
+          {"min_obstacle_clearance", r.measured.min_obstacle_clearance},
+          {"final_pitch_rad", r.final_pitch_rad},
+          {"final_base_height_m", r.final_base_height_m}};
+}
+
+// The largest absolute differences of the measured quantities between two reports.
+struct Differences {
+  double event_pos_m = 0.0, event_vel_m_s = 0.0, event_pitch_rad = 0.0, event_t_s = 0.0;
+  double envelope_ratio = 0.0, final_pitch_rad = 0.0, final_height_m = 0.0;
+  void add(const sm::VerificationReport& a, const sm::VerificationReport& b) {
+    const auto event = [&](const pl::JumpEvent& x, const pl::JumpEvent& y) {
+      event_t_s = std::max(event_t_s, std::abs(x.t - y.t));
+      event_pos_m =
+          std::max({event_pos_m, std::abs(x.state.x - y.state.x), std::abs(x.state.z - y.state.z)});
+      event_vel_m_s = std::max(
+          {event_vel_m_s, std::abs(x.state.vx - y.state.vx), std::abs(x.state.vz - y.state.vz)});
+      event_pitch_rad = std::max(event_pitch_rad, std::abs(x.state.pitch - y.state.pitch));
+    };
+    event(a.measured.takeoff, b.measured.takeoff);
+    event(a.measured.apex, b.measured.apex);
+    event(a.measured.touchdown, b.measured.touchdown);
+    envelope_ratio =
+        std::max(envelope_ratio, std::abs(a.max_envelope_ratio - b.max_envelope_ratio));
+    final_pitch_rad = std::max(final_pitch_rad, std::abs(a.final_pitch_rad - b.final_pitch_rad));
+    final_height_m =
+        std::max(final_height_m, std::abs(a.final_base_height_m - b.final_base_height_m));
+  }
+  nlohmann::json toJson() const {
+    return {{"event_position_m", event_pos_m},      {"event_velocity_m_s", event_vel_m_s},
+            {"event_pitch_rad", event_pitch_rad},   {"event_time_s", event_t_s},
+            {"envelope_ratio", envelope_ratio},     {"final_pitch_rad", final_pitch_rad},
+            {"final_base_height_m", final_height_m}};
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Times the verification of planned candidates; compares with the reference."};
+  int standing = 10, candidates = 2, runs = 3;
+  std::uint64_t seed = 7;
+  std::vector<std::string> presets = pl::presetNames();
+  bool compare = false;
+  app.add_option("--standing", standing, "bench_server's cold requests (0..n-1)")
+      ->capture_default_str();
+  app.add_option("--presets", presets, "planner presets (none: --presets '')");
+  app.add_option("--candidates", candidates, "candidates verified per plan")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--runs", runs, "timed verifications per candidate")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--seed", seed, "planner seed")->capture_default_str();
+  app.add_flag("--compare", compare, "also verify with VerifierSettings::reference()");
+  CLI11_PARSE(app, argc, argv);
+  presets.erase(std::remove(presets.begin(), presets.end(), std::string()), presets.end());
+
+  const auto robot = wj::model::RobotModel::loadDefault();
+  const pl::JumpPlanner planner(robot, pl::PlannerSettings{});
+  std::vector<pl::Scenario> cases;
+  for (int i = 0; i < standing; ++i) cases.push_back(standingCase(robot, i));
+  for (const auto& name : presets) cases.push_back(pl::makePreset(planner, name));
+
+  const sm::Verifier verifier(robot, sm::VerifierSettings{});
+  const sm::Verifier reference(robot, sm::VerifierSettings::reference());
+  nlohmann::json out, rows = nlohmann::json::array();
+  std::vector<double> wall_all, cpu_all, ref_cpu_all, simulated_all;
+  int verdicts_same = 0, compared = 0;
+  Differences diff;
+  for (const pl::Scenario& sc : cases) {
+    pl::PlanOptions o;
+    o.seed = seed;
+    o.threads = 1;
+    o.num_candidates = candidates;
+    const pl::PlannerResult r = planner.plan(sc.task, sc.initial, o);
+    if (!r.evaluation.valid) continue;
+    const pl::JumpModel model(robot, planner.settings(), sc.task, sc.initial);
+    const sm::Scenario scenario = sm::scenarioForTask(sc.task);
+    for (std::size_t k = 0; k < r.candidates.size(); ++k) {
+      const pl::JumpPlan plan =
+          k == 0 ? r.plan : model.buildPlan(r.candidates[k].u, &r.candidates[k].evaluation);
+      std::vector<double> wall, cpu;
+      sm::VerificationReport report;
+      for (int i = 0; i < runs; ++i) {
+        const double c0 = threadCpuMs();
+        const auto t0 = Clock::now();
+        report = verifier.verify(plan, scenario);
+        wall.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        cpu.push_back(threadCpuMs() - c0);
+      }
+      nlohmann::json row = {{"case", sc.name},
+                            {"candidate", k},
+                            {"wall_ms", median(wall)},
+                            {"cpu_ms", median(cpu)},
+                            {"report", reportJson(report)}};
+      wall_all.push_back(median(wall));
+      cpu_all.push_back(median(cpu));
+      simulated_all.push_back(report.final_time_s);
+      if (compare) {
+        const double c0 = threadCpuMs();
+        const sm::VerificationReport ref = reference.verify(plan, scenario);
+        const double ref_cpu = threadCpuMs() - c0;
+        ref_cpu_all.push_back(ref_cpu);
+        ++compared;
+        const bool same =
+            ref.passed == report.passed && ref.failures.toVector() == report.failures.toVector();
+        verdicts_same += same ? 1 : 0;
+        diff.add(report, ref);
+        Differences one;
+        one.add(report, ref);
+        row["reference"] = {{"cpu_ms", ref_cpu},
+                            {"same_verdict", same},
+                            {"differences", one.toJson()},
+                            {"report", reportJson(ref)}};
+      }
+      rows.push_back(row);
+    }
+  }
+  out["verifications"] = rows;
+  out["median_wall_ms"] = median(wall_all);
+  out["median_cpu_ms"] = median(cpu_all);
+  out["median_simulated_s"] = median(simulated_all);
+  if (compare) {
+    out["reference_median_cpu_ms"] = median(ref_cpu_all);
+    out["compared"] = compared;
+    out["same_verdicts"] = verdicts_same;
+    out["largest_differences"] = diff.toJson();
+  }
+  std::cout << out.dump(2) << std::endl;
+  return 0;
+}

@@ -1,0 +1,196 @@
+// SimRobot's construction: the Simbody system built from the RobotModel (see sim_robot_impl.h).
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "sim/plant.h"
+#include "sim_robot_impl.h"
+
+namespace wj::sim {
+
+using detail::Part;
+using detail::toTransform;
+using detail::toVec3;
+
+namespace {
+
+// Simbody wants the rotational inertia about the body origin; the model gives it about the CoM.
+SimTK::Body::Rigid makeBody(const model::Inertia& in) {
+  if (!(in.mass > 0.0)) throw std::invalid_argument("SimRobot: every link needs a positive mass");
+  SimTK::Mat33 I_c;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) I_c[r][c] = in.inertia_com(r, c);
+  const SimTK::Vec3 com = toVec3(in.com);
+  const SimTK::Inertia I_o = SimTK::Inertia(I_c).shiftFromMassCenter(com, in.mass);
+  return SimTK::Body::Rigid(SimTK::MassProperties(in.mass, com, I_o));
+}
+
+}  // namespace
+
+//==============================================================================================
+SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
+    : model(m),
+      settings(s),
+      law(detail::makeContactLaw(s.contact)),
+      matter(system),
+      forces(system),
+      rng(s.noise.seed) {
+  settings.validate();
+  const ContactSettings& cs = settings.contact;
+  const SimTK::ContactMaterial material(cs.stiffness_pa, cs.dissipation_s_m, cs.static_friction,
+                                        cs.dynamic_friction, cs.viscous_friction_s_m);
+  addGravityElement();
+  const bool ellipsoid_wheels = cs.wheel_shape == WheelShape::Ellipsoid;
+  if (ellipsoid_wheels) {
+    tracker.emplace(system);
+    contact.emplace(system, *tracker);
+    contact->setTransitionVelocity(cs.transition_velocity_m_s);
+  }
+  ground_law = detail::makeHertzCircularLaw(material, material, cs.transition_velocity_m_s);
+  addGround(material, ellipsoid_wheels);
+  buildTree();
+  addContactGeometry(material, ellipsoid_wheels);
+  addDriveAndContactElements();
+  makeDrives();
+  realizeAndCache();
+  classifySurfaces();
+  makeIntegrator();
+  integ->initialize(default_state);
+}
+
+void SimRobot::Impl::addGround(const SimTK::ContactMaterial& material, bool ellipsoid_wheels) {
+  // A half-space occupies x > 0 of its frame; turn that x to point into the ground.
+  const Terrain& terrain = settings.terrain;
+  if (terrain.has_ground) {
+    const SimTK::Rotation R_GH(SimTK::Pi / 2 - terrain.slope_rad, SimTK::YAxis);
+    ground_normal = SimTK::UnitVec3(-R_GH.x());
+    if (ellipsoid_wheels)
+      matter.updGround().updBody().addContactSurface(
+          SimTK::Transform(R_GH),
+          SimTK::ContactSurface(SimTK::ContactGeometry::HalfSpace(), material));
+  }
+}
+
+void SimRobot::Impl::buildTree() {
+  // A pin turns about z of its frames, so both frames are turned to put z on the URDF axis.
+  const auto& links = model.links();
+  mobods.resize(links.size());
+  // The plant's masses (PlantSettings): every link scaled, the payload on the base.
+  const PlantSettings& plant = settings.plant;
+  mobods[0] = SimTK::MobilizedBody::Free(
+      matter.updGround(), SimTK::Transform(),
+      makeBody(addPointMass(scaleInertia(links[0].inertia, plant.link_mass_scale), plant.payload)),
+      SimTK::Transform());
+  // Links were appended parent-before-child by the loader.
+  for (std::size_t li = 1; li < links.size(); ++li) {
+    const model::JointSpec& j = model.joints()[links[li].parent_joint];
+    const SimTK::Rotation R_JA(SimTK::UnitVec3(toVec3(j.axis)), SimTK::ZAxis);
+    const SimTK::Transform X_PF = toTransform(j.X_PJ) * SimTK::Transform(R_JA);
+    const SimTK::Transform X_BM(R_JA);
+    const SimTK::MobilizedBody::Pin pin(
+        mobods[j.parent_link], X_PF,
+        makeBody(scaleInertia(links[li].inertia, plant.link_mass_scale)), X_BM);
+    mobods[li] = pin;
+    pins[model::jointIndex(j.leg, j.kind)] = pin;
+  }
+}
+
+void SimRobot::Impl::addContactGeometry(const SimTK::ContactMaterial& material,
+                                        bool ellipsoid_wheels) {
+  // Surfaces against the ground: wheel, knee, base corners. Spheres go to GroundElement;
+  // ellipsoid wheels to Simbody's tracker, in one clique so that they never collide with
+  // each other.
+  const SimTK::ContactCliqueId clique = SimTK::ContactSurface::createNewContactClique();
+  const double r = model.wheelRadius();
+  for (const model::Leg leg : model::kLegs) {
+    const model::JointSpec& wheel = model.joint(leg, model::JointKind::Wheel);
+    wheel_link[static_cast<int>(leg)] = wheel.child_link;
+    // The loader guarantees the wheel axis is y of the wheel link.
+    if (ellipsoid_wheels)
+      mobods[wheel.child_link].updBody().addContactSurface(
+          SimTK::Transform(), SimTK::ContactSurface(SimTK::ContactGeometry::Ellipsoid(SimTK::Vec3(
+                                                        r, 0.5 * model.wheelWidth(), r)),
+                                                    material)
+                                  .joinClique(clique));
+  }
+  ground_spheres = detail::makeGroundSpheres(model, settings.contact, ellipsoid_wheels);
+  groups = detail::makeBoxSphereGroups(model, settings.contact);
+}
+
+void SimRobot::Impl::makeDrives() {
+  const PlantSettings& plant = settings.plant;
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    envelopes[i] =
+        scaleEnvelope(model.joints()[i].actuator, plant.torque_scale, plant.corner_speed_scale);
+    if (envelopes[i].corner_speed_rad_s >= envelopes[i].no_load_speed_rad_s)
+      throw std::invalid_argument("plant settings: corner_speed_scale puts the corner speed of " +
+                                  model.joints()[i].name + " beyond its no-load speed");
+  }
+  pending.resize(
+      static_cast<std::size_t>(std::ceil(plant.motor_latency_s / settings.control_period_s)) + 2);
+}
+
+void SimRobot::Impl::realizeAndCache() {
+  default_state = system.realizeTopology();
+  system.realizeModel(default_state);
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    q_index[i] = pins[i].getFirstQIndex(default_state);
+    u_index[i] = pins[i].getFirstUIndex(default_state);
+  }
+  for (const SimTK::MobilizedBody& mb : mobods) {
+    const SimTK::MassProperties& mp = mb.getBodyMassProperties(default_state);
+    link_mass.push_back(mp.getMass());
+    link_com.push_back(mp.getMassCenter());
+  }
+}
+
+void SimRobot::Impl::classifySurfaces() {
+  const int num_surfaces = tracker ? tracker->getNumSurfaces() : 0;
+  surface_part.resize(num_surfaces, Part::Base);
+  surface_leg.resize(num_surfaces, -1);
+  surface_is_robot.resize(num_surfaces, false);
+  for (int i = 0; i < num_surfaces; ++i) {
+    const SimTK::MobilizedBodyIndex mbx =
+        tracker->getMobilizedBody(SimTK::ContactSurfaceIndex(i)).getMobilizedBodyIndex();
+    if (mbx == SimTK::GroundIndex) continue;
+    surface_is_robot[i] = true;
+    for (int l = 0; l < model::kNumLegs; ++l) {
+      if (mobods[wheel_link[l]].getMobilizedBodyIndex() == mbx) {
+        surface_part[i] = Part::Wheel;
+        surface_leg[i] = l;
+      }
+      const model::JointSpec& knee = model.joint(model::kLegs[l], model::JointKind::KFE);
+      if (mobods[knee.parent_link].getMobilizedBodyIndex() == mbx) {
+        surface_part[i] = Part::Leg;
+        surface_leg[i] = l;
+      }
+    }
+  }
+}
+
+//==============================================================================================
+void SimRobot::Impl::makeIntegrator() {
+  const IntegratorSettings& is = settings.integrator;
+  switch (is.kind) {
+    case IntegratorKind::SemiExplicitEuler:
+      integ = std::make_unique<SimTK::SemiExplicitEulerIntegrator>(system, is.max_step_s);
+      break;
+    case IntegratorKind::SemiExplicitEuler2:
+      integ = std::make_unique<SimTK::SemiExplicitEuler2Integrator>(system);
+      break;
+    case IntegratorKind::RungeKutta3:
+      integ = std::make_unique<SimTK::RungeKutta3Integrator>(system);
+      break;
+    case IntegratorKind::RungeKuttaMerson:
+      integ = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(system);
+      break;
+  }
+  if (is.kind != IntegratorKind::SemiExplicitEuler) {
+    integ->setAccuracy(is.accuracy);
+    integ->setMaximumStepSize(is.max_step_s);
+  }
+  // Every control instant must be a step boundary: the commands change there.
+  integ->setAllowInterpolation(false);
+}
+
+}  // namespace wj::sim
