@@ -190,24 +190,35 @@ void PlanningCore::plan(PlanRequest request, std::shared_ptr<PlanCall> call) {
     if (c && !c->completed() && Clock::now() >= c->deadline()) deadline_exceeded_.fetch_add(1);
   });
   const CacheKey key = keyOf(request);
-  std::optional<CachedSolution> hit;
+  bool stopping = false;
   {
-    std::unique_lock lock(mu_);
-    if (stopping_) {
-      lock.unlock();
-      finish(call, errorOutcome(ErrorCode::Unavailable, "the server is shutting down"));
-      return;
-    }
-    hit = cache_.find(key);
-    if (hit && wantsVerification(request) && hit->verification.status == VerificationStatus::NotRun)
-      hit.reset();  // computed without verification; this caller wants it verified
+    std::lock_guard lock(mu_);
+    stopping = stopping_;
   }
+  if (stopping) {
+    finish(call, errorOutcome(ErrorCode::Unavailable, "the server is shutting down"));
+    return;
+  }
+  std::optional<CachedSolution> hit = findHit(request, key);
   if (hit) {
     hits_.fetch_add(1);
     submitHit(std::move(request), key, *hit, std::move(call), BoundedExecutor::Lane::Request);
     return;
   }
   startComputation(std::move(request), key, std::move(call), BoundedExecutor::Lane::Request);
+}
+
+std::optional<CachedSolution> PlanningCore::findHit(const PlanRequest& request,
+                                                    const CacheKey& key) {
+  std::optional<CachedSolution> hit = cache_.find(key);
+  if (hit && wantsVerification(request) && hit->verification.status == VerificationStatus::NotRun)
+    hit.reset();  // computed without verification; this caller wants it verified
+  return hit;
+}
+
+void PlanningCore::recordHotHit(double ms) {
+  hits_.fetch_add(1);
+  latency_[static_cast<std::size_t>(PlanSource::CacheHit)].record(ms);
 }
 
 void PlanningCore::submitHit(PlanRequest request, CacheKey key, CachedSolution solution,
@@ -552,9 +563,7 @@ void PlanningCore::startWarmPoint(const std::shared_ptr<WarmState>& state) {
   if (state->call->cancelled()) point->cancel();
   // Grid points are admitted work of an admitted stream: they do not count against the queue.
   const CacheKey key = keyOf(r);
-  std::optional<CachedSolution> hit = cache_.find(key);
-  if (hit && wantsVerification(r) && hit->verification.status == VerificationStatus::NotRun)
-    hit.reset();
+  std::optional<CachedSolution> hit = findHit(r, key);
   if (hit) {
     hits_.fetch_add(1);
     submitHit(std::move(r), key, *hit, std::move(point), BoundedExecutor::Lane::Internal);

@@ -139,6 +139,12 @@ class PlanningCore {
   /// progress through `call`. RESOURCE_EXHAUSTED at once when max_streams calls are running.
   void warm(WarmRequest request, std::shared_ptr<WarmCall> call);
 
+  /// The memory cache's entry that would answer `request` (key `key`) as a hit now: none on a
+  /// miss, or when the request wants verification and the entry was computed without it. Cheap
+  /// (one lock, one lookup): the RPC layer's hot tier checks its responses against it.
+  std::optional<CachedSolution> findHit(const PlanRequest& request, const CacheKey& key);
+  /// Counts a hit answered by the RPC layer's hot tier, `ms` after it was received.
+  void recordHotHit(double ms);
   /// Counts a PlanJump call received (valid or not) / refused as invalid.
   void recordRequest() { requests_.fetch_add(1); }
   void recordInvalid() { rejected_invalid_.fetch_add(1); }
