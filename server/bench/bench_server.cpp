@@ -2,7 +2,9 @@
 //   1. cache hits: round-trip percentiles with N concurrent clients (own connections) and the
 //      hit throughput, the CPU time per hit of the server and of the clients, the response
 //      size; every request carries a different robot state inside its client's cache bin, as a
-//      robot's do, so that no answer can be a replay of an earlier one; and ("hit_breakdown")
+//      robot's do, so that no answer can be a replay of an earlier one (unless
+//      --hot-responses-mb > 0 asks for the hot tier, whose later hits of a bin are the bin's
+//      first answer by design); and ("hit_breakdown")
 //      the stages of one hit timed one by one on one thread;
 //   2. cold plans with verification: latency percentiles with the default planner settings and
 //      a generous deadline, and what a 150 ms deadline gets (with and without verification);
@@ -185,6 +187,8 @@ v1::PlanJumpRequest standing(double v0, double height) {
 
 // Sample period of the returned trajectories of every server started here (--output-dt-s).
 double g_output_dt_s = 0.002;
+// cache.hot_responses_mb of the hit benchmark's server (0: every hit regenerated).
+double g_hot_responses_mb = 0.0;
 
 wj::server::ServerConfig baseConfig(const std::filesystem::path& dir) {
   wj::server::ServerConfig c;
@@ -472,6 +476,7 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
   config.planner.settings_file = writeFastPlannerSettings(dir).string();
   config.verification.enabled = false;
   config.executor.hit_workers = 2;
+  config.cache.hot_responses_mb = g_hot_responses_mb;
   Server server(config, dir, "hits");
   const double wheel_radius = wj::model::RobotModel::loadDefault().wheelRadius();
   std::vector<BinnedRequests> generators;
@@ -518,6 +523,7 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
   json j = loopJson(loop);
   j["clients"] = clients;
   j["output_dt_s"] = config.planner.output_dt_s;
+  j["hot_responses_mb"] = g_hot_responses_mb;
   j["not_hits"] = not_hits.load();
   j["errors_or_not_hits"] = loop.errors + not_hits.load();
   j["response_bytes"] = sampled > 0 ? bytes_total.load() / sampled : 0;
@@ -872,6 +878,10 @@ int main(int argc, char** argv) {
   app.add_option("--output-dt-s", g_output_dt_s,
                  "planner.output_dt_s of the servers (0: the planner's own, 1 ms); the default is "
                  "config/planner_server.yaml's")
+      ->capture_default_str();
+  app.add_option("--hot-responses-mb", g_hot_responses_mb,
+                 "cache.hot_responses_mb of the hit benchmark's server: > 0 answers a hit after "
+                 "the first of its bin with the bin's ready response (docs/service.md, Hot tier)")
       ->capture_default_str();
   std::string format = "knots";
   app.add_option("--format", format, "trajectory format of the requests: knots | dense")

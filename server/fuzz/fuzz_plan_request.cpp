@@ -60,6 +60,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           fail("evaluations out of range");
         if (!std::isfinite(r.initial.v0) || !std::isfinite(r.initial.pitch_rate))
           fail("non-finite state accepted");
+        const double stamp = request.state().stamp_s();
+        if (!std::isfinite(stamp) || stamp < 0.0 || stamp > RequestBounds::kMaxStampS)
+          fail("state.stamp_s outside [0, kMaxStampS] accepted");
+        for (const char c : r.request_id)
+          if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+            fail("control character in request_id accepted");
+        if (!r.initial.q.allFinite() || !std::isfinite(r.initial.pitch))
+          fail("non-finite posture accepted");
       } catch (const ServiceError& e) {
         checkError(e);
       }
@@ -76,6 +84,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           fail("grid size out of range");
         for (const double v : w.v0_grid)
           if (!std::isfinite(v) || v < -1.0 || v > 4.0) fail("grid point out of range");
+        if (!(request.v0_step_m_s() > 0.0 && request.v0_step_m_s() <= 5.0))
+          fail("v0_step_m_s outside (0, 5] accepted");
       } catch (const ServiceError& e) {
         checkError(e);
       }

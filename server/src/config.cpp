@@ -235,6 +235,8 @@ void ServerConfig::validate() const {
           "cache.warm_start_neighbors", "in [0, 16]", cache.warm_start_neighbors);
   require(cache.warm_start_max_distance_m_s >= 0 && cache.warm_start_max_distance_m_s <= 5,
           "cache.warm_start_max_distance_m_s", "in [0, 5] m/s", cache.warm_start_max_distance_m_s);
+  require(cache.hot_responses_mb >= 0 && cache.hot_responses_mb <= 4096, "cache.hot_responses_mb",
+          "in [0, 4096] MB (0 = off)", cache.hot_responses_mb);
   if (cache.backend == CacheBackend::Redis) {
     const auto& r = cache.redis;
     require(cache.path.empty(), "cache.path",
@@ -366,6 +368,8 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
     r.read("posture_bin_rad", k.posture_bin_rad);
     r.read("warm_start_neighbors", k.warm_start_neighbors);
     r.read("warm_start_max_distance_m_s", k.warm_start_max_distance_m_s);
+    // Opt-in, like the backend: configurations without it keep regenerating every hit.
+    if (r.has("hot_responses_mb")) r.read("hot_responses_mb", k.hot_responses_mb);
     if (k.backend == CacheBackend::Redis && !r.has("redis"))
       throw std::runtime_error("server config " + origin +
                                ": missing key 'cache.redis' (required with cache.backend redis)");
@@ -477,6 +481,7 @@ std::string ServerConfig::toYaml() const {
     << "  posture_bin_rad: " << num(cache.posture_bin_rad) << "\n"
     << "  warm_start_neighbors: " << cache.warm_start_neighbors << "\n"
     << "  warm_start_max_distance_m_s: " << num(cache.warm_start_max_distance_m_s) << "\n"
+    << "  hot_responses_mb: " << num(cache.hot_responses_mb) << "\n"
     << "  redis:\n"
     << "    host: " << quote(cache.redis.host) << "\n"
     << "    port: " << cache.redis.port << "\n"

@@ -67,9 +67,14 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
     }
     const std::string request_id = r.request_id;
     const auto& robot = core.robot();
+    HotSlot hot;
+    if (service_.hot_.enabled()) {
+      hot = findHot(r, response);
+      if (hot.served) return;
+    }
     call_ = std::make_shared<PlanCall>(
         toCoreDeadline(context->deadline(), service_.config_.deadlines),
-        [this, response, request_id, &robot](PlanOutcome&& o) {
+        [this, response, request_id, &robot, hot = std::move(hot)](PlanOutcome&& o) {
           // On a core worker thread: convert and finish there.
           if (o.error) {
             spdlog::debug("PlanJump {}: {}", printable(request_id), o.error->what());
@@ -77,6 +82,10 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
             return;
           }
           toProto(o.answer, robot, request_id, response);
+          // A regenerated hit becomes the ready response of its bin.
+          if (!hot.key.empty() && o.answer.source == PlanSource::CacheHit)
+            service_.hot_.put(hot.key, hot.stamp,
+                              std::make_shared<const v1::PlanJumpResponse>(*response));
           Finish(grpc::Status::OK);
         });
     core.plan(std::move(r), call_);
@@ -91,6 +100,36 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
   }
 
  private:
+  // The hot tier's slot of a request: its key and the cache entry it would be built from.
+  struct HotSlot {
+    std::string key;    ///< "" when the request is not a hit
+    std::string stamp;  ///< the compact entry's bytes
+    bool served = false;
+  };
+
+  // Answers `r` from the hot tier if its bin has a ready response built from the entry the
+  // cache holds now (Finish is called and served is set); else the slot to fill after the hit.
+  HotSlot findHot(const PlanRequest& r, v1::PlanJumpResponse* response) {
+    const auto received = Clock::now();
+    auto& core = service_.core_;
+    HotSlot slot;
+    const CacheKey key = core.keyOf(r);
+    const auto hit = core.findHit(r, key);
+    if (!hit) return slot;
+    slot.key = key.bytes() + (r.trajectory == TrajectoryFormat::Knots ? 'K' : 'D');
+    slot.stamp = encodeSolution(*hit);
+    const auto ready = service_.hot_.find(slot.key, slot.stamp);
+    if (!ready) return slot;
+    response->CopyFrom(*ready);
+    response->set_request_id(r.request_id);
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - received).count();
+    response->mutable_stats()->set_total_ms(ms);
+    core.recordHotHit(ms);
+    slot.served = true;
+    Finish(grpc::Status::OK);
+    return slot;
+  }
+
   JumpPlannerService& service_;
   std::shared_ptr<PlanCall> call_;
   bool admitted_ = true;
@@ -214,7 +253,9 @@ PlanJumpArenaAllocator::AllocateMessages() {
 
 //==============================================================================================
 JumpPlannerService::JumpPlannerService(PlanningCore& core, const ServerConfig& config)
-    : core_(core), config_(config) {
+    : core_(core),
+      config_(config),
+      hot_(static_cast<std::size_t>(config.cache.hot_responses_mb * 1024.0 * 1024.0)) {
   SetMessageAllocatorFor_PlanJump(&allocator_);
 }
 

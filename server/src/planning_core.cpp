@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 
 namespace wj::server {
 
@@ -23,22 +22,6 @@ PlanOutcome errorOutcome(ErrorCode code, const std::string& message) {
   o.error = ServiceError(code, message);
   return o;
 }
-
-std::int64_t unixMs() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
-// Multibody verdicts of a batch of candidates, filled by the verify pool.
-struct VerifyBatch {
-  explicit VerifyBatch(std::size_t n) : verdicts(n) {}
-  std::mutex mu;
-  std::condition_variable cv;
-  std::vector<std::optional<VerifierVerdict>> verdicts;  ///< nullopt: not run (yet)
-  std::size_t finished = 0;                              ///< run or skipped
-  std::atomic<bool> abandoned{false};                    ///< the requester stopped waiting
-};
 
 }  // namespace
 
@@ -160,6 +143,7 @@ PlanningCore::PlanningCore(const ServerConfig& config, model::RobotModel robot,
                  static_cast<std::size_t>(config.executor.plan_queue)),
       verify_pool_("wj-verify", config.executor.verify_workers,
                    static_cast<std::size_t>(64 * (config.executor.plan_workers + 1))),
+      pipeline_(config_, planner_, verifier_.get(), verify_pool_),
       started_(Clock::now()) {}
 
 PlanningCore::~PlanningCore() {
@@ -175,12 +159,6 @@ planner::InitialState PlanningCore::nominalState(double v0) const {
 
 bool PlanningCore::wantsVerification(const PlanRequest& r) const {
   return verifier_ != nullptr && !r.skip_verification;
-}
-
-int PlanningCore::candidatesFor(const PlanRequest& r) const {
-  const int asked = r.max_verified_candidates > 0 ? r.max_verified_candidates
-                                                  : config_.verification.default_candidates;
-  return std::clamp(asked, 1, config_.verification.max_candidates);
 }
 
 std::uint64_t PlanningCore::effectiveSeed(const PlanRequest& r) const {
@@ -212,24 +190,35 @@ void PlanningCore::plan(PlanRequest request, std::shared_ptr<PlanCall> call) {
     if (c && !c->completed() && Clock::now() >= c->deadline()) deadline_exceeded_.fetch_add(1);
   });
   const CacheKey key = keyOf(request);
-  std::optional<CachedSolution> hit;
+  bool stopping = false;
   {
-    std::unique_lock lock(mu_);
-    if (stopping_) {
-      lock.unlock();
-      finish(call, errorOutcome(ErrorCode::Unavailable, "the server is shutting down"));
-      return;
-    }
-    hit = cache_.find(key);
-    if (hit && wantsVerification(request) && hit->verification.status == VerificationStatus::NotRun)
-      hit.reset();  // computed without verification; this caller wants it verified
+    std::lock_guard lock(mu_);
+    stopping = stopping_;
   }
+  if (stopping) {
+    finish(call, errorOutcome(ErrorCode::Unavailable, "the server is shutting down"));
+    return;
+  }
+  std::optional<CachedSolution> hit = findHit(request, key);
   if (hit) {
     hits_.fetch_add(1);
     submitHit(std::move(request), key, *hit, std::move(call), BoundedExecutor::Lane::Request);
     return;
   }
   startComputation(std::move(request), key, std::move(call), BoundedExecutor::Lane::Request);
+}
+
+std::optional<CachedSolution> PlanningCore::findHit(const PlanRequest& request,
+                                                    const CacheKey& key) {
+  std::optional<CachedSolution> hit = cache_.find(key);
+  if (hit && wantsVerification(request) && hit->verification.status == VerificationStatus::NotRun)
+    hit.reset();  // computed without verification; this caller wants it verified
+  return hit;
+}
+
+void PlanningCore::recordHotHit(double ms) {
+  hits_.fetch_add(1);
+  latency_[static_cast<std::size_t>(PlanSource::CacheHit)].record(ms);
 }
 
 void PlanningCore::submitHit(PlanRequest request, CacheKey key, CachedSolution solution,
@@ -328,276 +317,80 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
                       std::nullopt, PlanSource::Coalesced);
     return;
   }
-
-  // Slow path of the cache: a row in SQLite that is no longer (or not yet) in memory.
-  if (auto stored = cache_.findPersisted(c->key);
-      stored && (!c->want_verify || stored->verification.status != VerificationStatus::NotRun)) {
-    try {
-      PlanAnswer a = answerFromSolution(*stored, request, c->key, PlanSource::CacheHit);
-      // Feasible where it was computed but not at this state (see submitHit): plan below.
-      if (!stored->feasible || a.evaluation.feasible) {
-        hits_.fetch_add(1);
-        finishComputation(c, std::nullopt, std::move(a), stored, PlanSource::Coalesced);
-        return;
-      }
-    } catch (const std::exception&) {
-      // Not valid at this state: plan below.
-    }
-  }
+  if (answerFromPersisted(c, request)) return;
   misses_.fetch_add(1);
 
-  // The deadline becomes the budget: what is left after the reply margin, split between the
-  // search (DE, polish) and the verification.
-  const auto budget_end =
-      deadline - std::chrono::duration_cast<Clock::duration>(
-                     std::chrono::duration<double>(config_.deadlines.reply_margin_s));
-  const double remaining = secondsUntil(budget_end);
-  if (remaining < config_.deadlines.min_budget_s) {
+  // The deadline becomes the budget: what is left after the reply margin, which the pipeline
+  // splits between the search (DE, polish) and the verification.
+  MissInputs in;
+  in.budget_end = deadline - std::chrono::duration_cast<Clock::duration>(
+                                 std::chrono::duration<double>(config_.deadlines.reply_margin_s));
+  in.remaining_s = secondsUntil(in.budget_end);
+  if (in.remaining_s < config_.deadlines.min_budget_s) {
     finishComputation(c,
                       ServiceError(ErrorCode::DeadlineExceeded,
                                    "the deadline left no time to plan (waited in the queue)"),
                       std::nullopt, std::nullopt, PlanSource::Coalesced);
     return;
   }
-  const bool verify = c->want_verify;
-  const double verify_reserve = verify ? remaining * config_.verification.budget_fraction : 0.0;
-  const double search = remaining - verify_reserve;
-  const auto& settings = planner_.settings();
-  const bool polish = settings.polish && search >= config_.planner.polish_min_budget_s;
-  // The DE checks its clock once per generation, so it may overrun its budget by one; two
-  // generations (measured on earlier plans) are kept back, plus the time to build the plans.
-  const double generation_s = generation_ms_.load() / 1e3;
-  double de_budget =
-      search - (polish ? config_.planner.polish_reserve_s : 0.0) - 2.0 * generation_s - 0.005;
-  if (settings.de.time_budget_s > 0) de_budget = std::min(de_budget, settings.de.time_budget_s);
-
-  planner::PlanOptions options;
-  options.seed = effectiveSeed(request);
-  options.max_evaluations = std::min(request.max_evaluations.value_or(settings.de.max_evaluations),
-                                     config_.planner.max_evaluations_cap);
-  options.max_evaluations =
-      std::max<std::int64_t>(*options.max_evaluations, settings.de.population_size);
-  options.time_budget_s = std::max(de_budget, 1e-3);
-  options.threads = config_.planner.de_threads;
-  options.polish = polish;
-  options.num_candidates = verify ? candidatesFor(request) : 1;
-  options.cancel = &c->cancel;
+  in.cache_key_hex = c->key.hex();
+  in.seed = effectiveSeed(request);
+  in.verify = c->want_verify;
+  in.cancel = &c->cancel;
   PlanSource source = PlanSource::CacheMiss;
   const auto neighbours = cache_.nearestByV0(
       c->key, config_.cache.warm_start_neighbors,
       static_cast<int>(
           std::floor(config_.cache.warm_start_max_distance_m_s / config_.cache.v0_bin_m_s + 1e-9)));
   if (!neighbours.empty()) {
-    options.warm_start.resize(planner::kNumDecision, static_cast<Eigen::Index>(neighbours.size()));
+    in.warm_start.resize(planner::kNumDecision, static_cast<Eigen::Index>(neighbours.size()));
     for (std::size_t j = 0; j < neighbours.size(); ++j)
       for (int i = 0; i < planner::kNumDecision; ++i)
-        options.warm_start(i, static_cast<Eigen::Index>(j)) =
+        in.warm_start(i, static_cast<Eigen::Index>(j)) =
             neighbours[j].second.u[static_cast<std::size_t>(i)];
     source = PlanSource::WarmStart;
     warm_starts_.fetch_add(1);
   }
+  in.request = std::move(request);
 
-  planner::PlannerResult result;
-  try {
-    result = planner_.plan(request.task, request.initial, options);
-  } catch (...) {
-    finishComputation(c, classifyException(std::current_exception()), std::nullopt, std::nullopt,
-                      PlanSource::Coalesced);
+  MissResult result = pipeline_.run(in);
+  if (result.error) {
+    finishComputation(c, result.error, std::nullopt, std::nullopt, PlanSource::Coalesced);
     return;
   }
-  if (result.de.generations > 0) {
-    const double measured = result.de_ms / (result.de.generations + 1);
-    generation_ms_.store(0.8 * generation_ms_.load() + 0.2 * measured);
-  }
-  if (c->cancel) {
-    finishComputation(c, ServiceError(ErrorCode::Cancelled, "the call was cancelled"), std::nullopt,
-                      std::nullopt, PlanSource::Coalesced);
-    return;
-  }
-  if (Clock::now() > budget_end) {
-    finishComputation(
-        c, ServiceError(ErrorCode::DeadlineExceeded, "planning did not finish within the deadline"),
-        std::nullopt, std::nullopt, PlanSource::Coalesced);
-    return;
-  }
-
-  PlanAnswer answer;
-  answer.source = source;
-  answer.stats.de_ms = result.de_ms;
-  answer.stats.polish_ms = result.polish_ms;
-  answer.stats.evaluations = result.de.evaluations;
-  answer.stats.generations = result.de.generations;
-  answer.stats.threads = *options.threads;
-  answer.stats.de_cost = result.de_cost;
-  answer.stats.polished_cost = result.final_cost;
-  answer.stats.seed = *options.seed;
-  answer.stats.cache_key = c->key.hex();
-  const bool de_complete = result.de.stop_reason != planner::de::StopReason::TimeBudget &&
-                           result.de.stop_reason != planner::de::StopReason::Cancelled;
-
-  std::size_t chosen = 0;  // rank of the returned candidate
-  StoredVerification stored_verification;
-  if (!result.evaluation.valid) {
-    // No dynamically valid trajectory at all: a normal, infeasible answer without a plan.
-    answer.evaluation = result.evaluation;
-    answer.binding = result.binding;
-    answer.summary = result.summary;
-    finishComputation(c, std::nullopt, std::move(answer), std::nullopt, PlanSource::Coalesced);
-    return;
-  }
-
-  std::vector<planner::JumpPlan> plans;
-  if (verify) {
-    // The best K distinct candidates, simulated in parallel on the verify pool.
-    const auto t_verify = Clock::now();
-    const planner::JumpModel model(planner_.robot(), planner_.settings(), request.task,
-                                   request.initial);
-    plans.reserve(result.candidates.size());
-    plans.push_back(result.plan);
-    for (std::size_t k = 1; k < result.candidates.size(); ++k)
-      plans.push_back(model.buildPlan(result.candidates[k].u, &result.candidates[k].evaluation));
-    auto shared_plans = std::make_shared<const std::vector<planner::JumpPlan>>(std::move(plans));
-    auto batch = std::make_shared<VerifyBatch>(shared_plans->size());
-    const planner::JumpTask task = request.task;
-    for (std::size_t k = 0; k < shared_plans->size(); ++k) {
-      Task t;
-      t.run = [this, batch, shared_plans, task, k] {
-        std::optional<VerifierVerdict> verdict;
-        if (!batch->abandoned) {
-          try {
-            verdict = verifier_->verify((*shared_plans)[k], task);
-          } catch (const std::exception& e) {
-            verdict = VerifierVerdict{};
-            verdict->reasons.push_back(std::string("verifier error: ") + e.what());
-          }
-        }
-        std::lock_guard lock(batch->mu);
-        batch->verdicts[k] = std::move(verdict);
-        ++batch->finished;
-        batch->cv.notify_all();
-      };
-      t.abandon = [batch] {
-        std::lock_guard lock(batch->mu);
-        ++batch->finished;
-        batch->cv.notify_all();
-      };
-      if (!verify_pool_.trySubmit(std::move(t), BoundedExecutor::Lane::Internal)) {
-        std::lock_guard lock(batch->mu);
-        ++batch->finished;
-      }
-    }
-    {
-      std::unique_lock lock(batch->mu);
-      while (batch->finished < batch->verdicts.size() && !c->cancel && Clock::now() < budget_end)
-        batch->cv.wait_until(lock,
-                             std::min(budget_end, Clock::now() + std::chrono::milliseconds(20)));
-      batch->abandoned = true;
-    }
-    answer.stats.verify_ms = msBetween(t_verify, Clock::now());
-    if (c->cancel) {
-      finishComputation(c, ServiceError(ErrorCode::Cancelled, "the call was cancelled"),
-                        std::nullopt, std::nullopt, PlanSource::Coalesced);
-      return;
-    }
-    // Best verified: passed and feasible, then passed, then the best-ranked one simulated.
-    std::vector<std::optional<VerifierVerdict>> verdicts;
-    {
-      std::lock_guard lock(batch->mu);
-      verdicts = batch->verdicts;
-    }
-    std::optional<std::size_t> pick;
-    int verified = 0;
-    for (const auto& v : verdicts) verified += v ? 1 : 0;
-    for (std::size_t k = 0; k < verdicts.size() && !pick; ++k)
-      if (verdicts[k] && verdicts[k]->passed && result.candidates[k].evaluation.feasible) pick = k;
-    for (std::size_t k = 0; k < verdicts.size() && !pick; ++k)
-      if (verdicts[k] && verdicts[k]->passed) pick = k;
-    for (std::size_t k = 0; k < verdicts.size() && !pick; ++k)
-      if (verdicts[k]) pick = k;
-    if (!pick) {
-      finishComputation(c,
-                        ServiceError(ErrorCode::DeadlineExceeded,
-                                     "no candidate finished its verification within the "
-                                     "deadline (" +
-                                         std::to_string(verdicts.size()) + " started)"),
-                        std::nullopt, std::nullopt, PlanSource::Coalesced);
-      return;
-    }
-    chosen = *pick;
-    const VerifierVerdict& v = *verdicts[chosen];
-    answer.plan = (*shared_plans)[chosen];
-    answer.verification.status = v.passed ? VerificationStatus::Passed : VerificationStatus::Failed;
-    answer.verification.failure_reasons = v.reasons;
-    answer.verification.simulated = v.simulated;
-    answer.verification.max_envelope_ratio = v.max_envelope_ratio;
-    answer.verification.landed_upright = v.landed_upright;
-    answer.verification.candidates_verified = verified;
-    answer.verification.returned_candidate_rank = static_cast<int>(chosen);
-    stored_verification.status = answer.verification.status;
-    stored_verification.failure_bits = v.failure_bits;
-    stored_verification.simulated = v.simulated;
-    stored_verification.max_envelope_ratio = v.max_envelope_ratio;
-    stored_verification.landed_upright = v.landed_upright;
-    stored_verification.candidates_verified = static_cast<std::uint16_t>(verified);
-    stored_verification.returned_candidate_rank = static_cast<std::uint16_t>(chosen);
-    stored_verification.verify_ms = static_cast<float>(answer.stats.verify_ms);
-  } else {
-    answer.plan = std::move(result.plan);
-    std::string why = "not run: skipped by the request (budget.skip_verification)";
-    if (!config_.verification.enabled)
-      why = "not run: disabled in the server configuration (verification.enabled)";
-    else if (!request.skip_verification)
-      why = "verification unavailable: this server was built without the sim component";
-    answer.verification.failure_reasons.push_back(why);
-  }
-  const auto& cand = result.candidates[chosen];
-  if (request.trajectory == TrajectoryFormat::Knots && answer.plan.numSamples() > 0) {
-    // The verifier ran the dense references; the answer carries the same plan as knots.
-    const planner::JumpModel model(planner_.robot(), planner_.settings(), request.task,
-                                   request.initial);
-    answer.plan = model.buildKnots(cand.u, &cand.evaluation);
-  }
-  answer.evaluation = cand.evaluation;
-  if (chosen == 0) {
-    answer.binding = result.binding;
-    answer.summary = result.summary;
-  } else {
-    describeEvaluation(answer.evaluation, planner_.settings().polish_backoff, answer.binding,
-                       answer.summary);
-  }
-
-  CachedSolution solution;
-  for (int i = 0; i < planner::kNumDecision; ++i)
-    solution.u[static_cast<std::size_t>(i)] = cand.u[i];
-  solution.t1 = answer.plan.t1;
-  solution.t2 = answer.plan.t2;
-  solution.t3 = answer.plan.t3;
-  solution.feasible = cand.evaluation.feasible;
-  solution.de_complete = de_complete;
-  solution.de_cost = result.de_cost;
-  solution.final_cost = cand.evaluation.cost;
-  solution.seed = *options.seed;
-  solution.evaluations = result.de.evaluations;
-  solution.generations = result.de.generations;
-  solution.de_ms = static_cast<float>(result.de_ms);
-  solution.polish_ms = static_cast<float>(result.polish_ms);
-  solution.verification = stored_verification;
-  solution.created_unix_ms = unixMs();
-  std::optional<CachedSolution> cached;
-  // A search cut short by the clock that found nothing feasible may do better with more time:
-  // it is answered but not cached.
-  if (de_complete || solution.feasible) {
+  result.answer->source = source;
+  if (result.solution && result.cacheable) {
     try {
-      cache_.put(c->key, solution);
+      cache_.put(c->key, *result.solution);
     } catch (const std::exception& e) {
       spdlog::error("cache write failed (the entry stays in memory only): {}", e.what());
     }
-    cached = solution;
   }
-  spdlog::debug("planned {} in {:.1f} ms ({} evaluations, feasible {}, verification {})",
-                c->key.hex().substr(0, 16), msBetween(t_start, Clock::now()), result.de.evaluations,
-                solution.feasible, static_cast<int>(answer.verification.status));
-  finishComputation(c, std::nullopt, std::move(answer), solution, PlanSource::Coalesced);
+  if (result.solution)
+    spdlog::debug("planned {} in {:.1f} ms ({} evaluations, feasible {}, verification {})",
+                  c->key.hex().substr(0, 16), msBetween(t_start, Clock::now()),
+                  result.solution->evaluations, result.solution->feasible,
+                  static_cast<int>(result.answer->verification.status));
+  finishComputation(c, std::nullopt, std::move(result.answer), result.solution,
+                    PlanSource::Coalesced);
+}
+
+bool PlanningCore::answerFromPersisted(const std::shared_ptr<Computation>& c,
+                                       const PlanRequest& request) {
+  // Slow path of the cache: a row in SQLite that is no longer (or not yet) in memory.
+  auto stored = cache_.findPersisted(c->key);
+  if (!stored || (c->want_verify && stored->verification.status == VerificationStatus::NotRun))
+    return false;
+  try {
+    PlanAnswer a = answerFromSolution(*stored, request, c->key, PlanSource::CacheHit);
+    // Feasible where it was computed but not at this state (see submitHit): plan instead.
+    if (stored->feasible && !a.evaluation.feasible) return false;
+    hits_.fetch_add(1);
+    finishComputation(c, std::nullopt, std::move(a), stored, PlanSource::Coalesced);
+    return true;
+  } catch (const std::exception&) {
+    return false;  // not valid at this state: plan instead
+  }
 }
 
 void PlanningCore::finishComputation(const std::shared_ptr<Computation>& c,
@@ -770,9 +563,7 @@ void PlanningCore::startWarmPoint(const std::shared_ptr<WarmState>& state) {
   if (state->call->cancelled()) point->cancel();
   // Grid points are admitted work of an admitted stream: they do not count against the queue.
   const CacheKey key = keyOf(r);
-  std::optional<CachedSolution> hit = cache_.find(key);
-  if (hit && wantsVerification(r) && hit->verification.status == VerificationStatus::NotRun)
-    hit.reset();
+  std::optional<CachedSolution> hit = findHit(r, key);
   if (hit) {
     hits_.fetch_add(1);
     submitHit(std::move(r), key, *hit, std::move(point), BoundedExecutor::Lane::Internal);

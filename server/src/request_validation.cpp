@@ -104,7 +104,12 @@ planner::InitialState toInitialState(const v1::RobotState& state, const model::R
   for (int i = 0; i < model::kNumJoints; ++i)
     requireBound("state.joint_velocities_rad_s[" + std::to_string(i) + "]",
                  state.joint_velocities_rad_s(i), RequestBounds::kMaxJointSpeedRadS);
-  requireFinite("state.stamp_s", state.stamp_s());
+  if (const double stamp = state.stamp_s();
+      !std::isfinite(stamp) || stamp < 0.0 || stamp > RequestBounds::kMaxStampS)
+    invalid(
+        "state.stamp_s (the robot's clock, informative; 0 = not given) must be finite and in "
+        "[0, " +
+        fmt(RequestBounds::kMaxStampS) + "] s, got " + fmt(stamp));
 
   // The jump frame's x is the base heading projected on the ground.
   const Eigen::Vector3d x_B = R_WB.col(0);
@@ -187,6 +192,14 @@ PlanRequest toPlanRequest(const v1::PlanJumpRequest& request, const model::Robot
   if (request.request_id().size() > RequestBounds::kMaxRequestIdBytes)
     invalid("request_id must be at most " + std::to_string(RequestBounds::kMaxRequestIdBytes) +
             " bytes, got " + std::to_string(request.request_id().size()));
+  for (std::size_t i = 0; i < request.request_id().size(); ++i) {
+    const auto c = static_cast<unsigned char>(request.request_id()[i]);
+    if (c < 0x20 || c == 0x7f)
+      invalid(
+          "request_id must hold no control characters (bytes 0x00 to 0x1f and 0x7f), got "
+          "byte " +
+          std::to_string(c) + " at index " + std::to_string(i));
+  }
   if (!request.has_state()) invalid("state is required");
   if (!request.has_task()) invalid("task is required");
   PlanRequest r;
@@ -235,8 +248,10 @@ WarmRequest toWarmRequest(const v1::WarmCacheRequest& request, const model::Robo
       invalid(std::string(name) + " must be finite and in [-1, 4], got " + fmt(v));
   }
   if (hi < lo) invalid("v0_max_m_s must be >= v0_min_m_s (" + fmt(lo) + "), got " + fmt(hi));
-  if (!std::isfinite(step) || step <= 0.0)
-    invalid("v0_step_m_s must be finite and > 0, got " + fmt(step));
+  // A step wider than the whole run-up range [-1, 4] names no second point: absurd.
+  if (!std::isfinite(step) || step <= 0.0 || step > 5.0)
+    invalid("v0_step_m_s must be finite and in (0, 5] (the width of the run-up range), got " +
+            fmt(step));
   const double points = std::floor((hi - lo) / step + 1e-9) + 1.0;
   if (points > RequestBounds::kMaxWarmGridPoints)
     invalid("the grid v0_min_m_s..v0_max_m_s in steps of v0_step_m_s must have at most " +

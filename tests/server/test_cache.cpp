@@ -15,6 +15,7 @@
 #include "planner/jump_planner.h"
 #include "server/cache_key.h"
 #include "server/cached_solution.h"
+#include "server/hot_responses.h"
 #include "server/solution_cache.h"
 #include "server/solution_store.h"
 #include "server_test_util.h"
@@ -366,6 +367,49 @@ TEST(SolutionCache, NearestNeighboursInV0) {
   EXPECT_EQ(cache.nearestByV0(keyAt(6), 5, 3).size(), 2u);  // 2 and 20 are too far
   EXPECT_TRUE(cache.nearestByV0(keyAt(6), 0, 10).empty());
   EXPECT_EQ(cache.nearestByV0(keyAt(5), 3, 100)[0].first, 2);  // itself excluded
+}
+
+// The hot tier: a response is served only while the entry it was built from is the cache's,
+// the bound in bytes evicts the least recently used, and 0 MB is off.
+TEST(HotResponses, ServesOnlyWhatTheCurrentEntryBuiltWithinItsBound) {
+  const auto response = [](const std::string& id, int samples) {
+    auto r = std::make_shared<wheeljump::planner::v1::PlanJumpResponse>();
+    r->set_request_id(id);
+    for (int i = 0; i < samples; ++i) r->mutable_plan()->add_decision_vector(i);
+    return std::shared_ptr<const HotResponses::Response>(std::move(r));
+  };
+  HotResponses off(0);
+  EXPECT_FALSE(off.enabled());
+  off.put("a", "s1", response("a", 10));
+  EXPECT_EQ(off.find("a", "s1"), nullptr);
+
+  const auto one = response("a", 100);  // ~0.9 KB
+  const std::size_t size = one->ByteSizeLong() + 1 + 2;
+  HotResponses hot(3 * size);
+  hot.put("a", "s1", one);
+  ASSERT_NE(hot.find("a", "s1"), nullptr);
+  EXPECT_EQ(hot.find("a", "s1")->request_id(), "a");
+  // The cache's entry changed (a better solution, or evicted and recomputed): dropped.
+  EXPECT_EQ(hot.find("a", "s2"), nullptr);
+  EXPECT_EQ(hot.entries(), 0u);
+  EXPECT_EQ(hot.bytes(), 0u);
+  // Least recently used out first, within the bound.
+  hot.put("a", "s1", response("a", 100));
+  hot.put("b", "s1", response("b", 100));
+  hot.put("c", "s1", response("c", 100));
+  ASSERT_NE(hot.find("a", "s1"), nullptr);  // a is now the most recent
+  hot.put("d", "s1", response("d", 100));
+  EXPECT_EQ(hot.entries(), 3u);
+  EXPECT_LE(hot.bytes(), 3 * size);
+  EXPECT_EQ(hot.find("b", "s1"), nullptr);
+  EXPECT_NE(hot.find("a", "s1"), nullptr);
+  EXPECT_NE(hot.find("d", "s1"), nullptr);
+  // Replacing a key keeps one entry; a response larger than the whole bound is not kept.
+  hot.put("d", "s2", response("D", 100));
+  EXPECT_EQ(hot.find("d", "s2")->request_id(), "D");
+  EXPECT_EQ(hot.entries(), 3u);
+  hot.put("e", "s1", response("e", 1000));
+  EXPECT_EQ(hot.find("e", "s1"), nullptr);
 }
 
 }  // namespace

@@ -50,6 +50,28 @@ TEST(ServerConfig, SampleFileIsValidAndNucLike) {
   EXPECT_DOUBLE_EQ(c.planner.output_dt_s, 0.002);
 }
 
+TEST(ServerConfig, HotResponsesAreOptionalOffByDefaultAndBounded) {
+  const std::string base = ServerConfig{}.toYaml();
+  const auto without =
+      ServerConfig::fromYamlString(replaceLine(base, "  hot_responses_mb:", ""), "<test>");
+  EXPECT_EQ(without.cache.hot_responses_mb, 0.0);
+  const auto with = ServerConfig::fromYamlString(
+      replaceLine(base, "  hot_responses_mb:", "  hot_responses_mb: 64"), "<test>");
+  EXPECT_DOUBLE_EQ(with.cache.hot_responses_mb, 64.0);
+  for (const char* bad : {"-1", "5000", ".nan"}) {
+    try {
+      ServerConfig::fromYamlString(
+          replaceLine(base, "  hot_responses_mb:", std::string("  hot_responses_mb: ") + bad),
+          "<test>");
+      ADD_FAILURE() << bad << " accepted";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find("cache.hot_responses_mb"), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("[0, 4096]"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(ServerConfig, OutputSamplePeriodIsOptionalAndBounded) {
   const std::string base = ServerConfig{}.toYaml();
   // Left out (configurations written before it): the planner settings' own period.

@@ -127,6 +127,47 @@ TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
   EXPECT_GT(s.uptime_s(), 0.0);
 }
 
+// The hot tier (cache.hot_responses_mb > 0): the first hit of a bin is regenerated at its
+// caller's state and becomes the bin's ready response; later hits of the bin get that response
+// (its trajectory starts at the first caller's v0), with their own request id, counted as hits.
+// Off by default: every hit is regenerated (the test above).
+TEST(Integration, HotTierAnswersLaterHitsOfABinWithItsFirstHit) {
+  TempDir dir("wj-it");
+  ServerConfig config = test::testConfig(dir.path());
+  config.cache.hot_responses_mb = 16.0;
+  ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient c(clientFor(server.target()));
+  const auto miss = plan(c, standingRequest(1.0));
+  ASSERT_TRUE(miss.ok()) << miss.status.error_message();
+  EXPECT_EQ(miss.response.source(), v1::PLAN_SOURCE_CACHE_MISS);
+  const auto first = plan(c, standingRequest(1.01));
+  ASSERT_TRUE(first.ok());
+  EXPECT_EQ(first.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  EXPECT_NEAR(first.response.plan().centroidal_trajectory(0).com_vx_m_s(), 1.01, 1e-9);
+  v1::PlanJumpRequest later_request = standingRequest(1.02);
+  later_request.set_request_id("later");
+  const auto later = plan(c, later_request);
+  ASSERT_TRUE(later.ok());
+  EXPECT_EQ(later.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  EXPECT_EQ(later.response.request_id(), "later");
+  EXPECT_NEAR(later.response.plan().centroidal_trajectory(0).com_vx_m_s(), 1.01, 1e-9);
+  v1::PlanJumpResponse a = first.response, b = later.response;
+  for (auto* m : {&a, &b}) {
+    m->clear_request_id();
+    m->mutable_stats()->clear_total_ms();
+  }
+  EXPECT_EQ(a.SerializeAsString(), b.SerializeAsString());
+  // Another trajectory format is another ready response.
+  later_request.set_trajectory_format(v1::TRAJECTORY_FORMAT_KNOTS);
+  const auto knots = plan(c, later_request);
+  ASSERT_TRUE(knots.ok());
+  EXPECT_GT(knots.response.plan().knots().t_s_size(), 0);
+  const auto s = stats(c);
+  EXPECT_EQ(s.cache_hits(), 3u);
+  EXPECT_EQ(s.cache_misses(), 1u);
+  EXPECT_EQ(s.latencies(0).count(), 3u);
+}
+
 // A plan sent as knots, on a miss and on a hit: no dense arrays, consistent knot arrays, and
 // densified at the same period it matches the dense answer of the same cached solution.
 TEST(Integration, PlansTravelAsKnotsWhenAsked) {

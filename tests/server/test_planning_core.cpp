@@ -1,6 +1,7 @@
 // The planning core without gRPC: hits regenerate for the caller's state, identical misses are
 // coalesced, the best verified candidate is returned, verifications run in parallel, deadlines
 // become budgets, cancellation stops the work, full queues refuse, warm starts and WarmCache.
+// The pipeline of a miss is also tested alone (MissPipeline.*), without core, cache or gRPC.
 // Verification uses a scripted test double (the real Simbody verifier is exercised by the
 // integration tests): it lets a test decide verdicts, durations and when a verification ends.
 #include <gtest/gtest.h>
@@ -8,6 +9,7 @@
 #include <future>
 #include <thread>
 
+#include "server/miss_pipeline.h"
 #include "server/planning_core.h"
 #include "server/solution_store.h"
 #include "server_test_util.h"
@@ -411,6 +413,125 @@ TEST(PlanningCore, WarmCacheStreamsProgressAndFillsTheCache) {
   EXPECT_DOUBLE_EQ(progress[2].v0, 0.2);
   EXPECT_EQ(progress[1].source, PlanSource::WarmStart);  // seeded by 0.0
   EXPECT_EQ(planSync(*f.core, request(0.1)).answer.source, PlanSource::CacheHit);
+}
+
+//==============================================================================================
+// The pipeline of a miss on its own: no core, no cache, no coalescing, no gRPC.
+struct PipelineFixture {
+  explicit PipelineFixture(ServerConfig c, ScriptedVerifier* v = nullptr)
+      : config(std::move(c)),
+        planner(model::RobotModel::loadDefault(),
+                planner::PlannerSettings::fromYaml(config.planner.settings_file)),
+        verifier(v),
+        pool("wj-test-verify", 2, 64),
+        pipeline(config, planner, v, pool) {}
+  MissInputs inputs(PlanRequest r, bool verify, std::chrono::milliseconds budget = 30s) const {
+    MissInputs in;
+    in.request = std::move(r);
+    in.cache_key_hex = "test-key";
+    in.verify = verify;
+    in.budget_end = Clock::now() + budget;
+    in.remaining_s = std::chrono::duration<double>(budget).count();
+    in.cancel = &cancel;
+    return in;
+  }
+  ServerConfig config;
+  planner::JumpPlanner planner;
+  std::unique_ptr<ScriptedVerifier> verifier;
+  BoundedExecutor pool;
+  MissPipeline pipeline;
+  std::atomic<bool> cancel{false};
+};
+
+TEST(MissPipeline, ChoosesPassedAndFeasibleThenPassedThenTheBestRankedSimulated) {
+  const auto verdict = [](bool passed) {
+    VerifierVerdict v;
+    v.passed = passed;
+    return std::optional<VerifierVerdict>(v);
+  };
+  const std::optional<VerifierVerdict> none;
+  EXPECT_EQ(chooseVerified({verdict(true), verdict(true)}, {false, true}), 1u);
+  EXPECT_EQ(chooseVerified({verdict(false), verdict(true)}, {true, false}), 1u);
+  EXPECT_EQ(chooseVerified({none, verdict(false), verdict(false)}, {true, true, true}), 1u);
+  EXPECT_EQ(chooseVerified({none, none}, {true, true}), std::nullopt);
+  EXPECT_EQ(chooseVerified({}, {}), std::nullopt);
+}
+
+TEST(MissPipeline, WithoutVerificationAnswersTheBestCandidateAndSaysWhy) {
+  ServerConfig c = coreConfig();
+  c.verification.enabled = false;
+  PipelineFixture f(c);
+  MissResult r = f.pipeline.run(f.inputs(request(1.0), false));
+  ASSERT_FALSE(r.error.has_value()) << r.error->what();
+  ASSERT_TRUE(r.answer.has_value());
+  ASSERT_TRUE(r.solution.has_value());
+  EXPECT_GT(r.answer->plan.numSamples(), 0);
+  EXPECT_EQ(r.answer->verification.status, VerificationStatus::NotRun);
+  ASSERT_EQ(r.answer->verification.failure_reasons.size(), 1u);
+  EXPECT_NE(r.answer->verification.failure_reasons[0].find("verification.enabled"),
+            std::string::npos);
+  EXPECT_EQ(r.answer->stats.cache_key, "test-key");
+  // The compact solution is the answer's: its u rebuilds the answer's plan.
+  const PlanRequest asked = request(1.0);
+  const planner::JumpModel model(f.planner.robot(), f.planner.settings(), asked.task,
+                                 asked.initial);
+  const Eigen::Map<const Eigen::VectorXd> u(r.solution->u.data(), planner::kNumDecision);
+  const planner::JumpPlan rebuilt = model.buildPlan(u);
+  EXPECT_EQ(rebuilt.decision, r.answer->plan.decision);
+  EXPECT_EQ(rebuilt.q, r.answer->plan.q);
+  EXPECT_EQ(r.solution->t3, r.answer->plan.t3);
+  EXPECT_EQ(r.solution->feasible, r.answer->evaluation.feasible);
+  EXPECT_EQ(r.cacheable, r.solution->de_complete || r.solution->feasible);
+  EXPECT_EQ(r.solution->verification.status, VerificationStatus::NotRun);
+}
+
+TEST(MissPipeline, VerifiesTheTopKAndReturnsTheBestThatPasses) {
+  ServerConfig c = coreConfig();
+  c.verification.default_candidates = 3;
+  auto* v = new ScriptedVerifier;
+  std::vector<double> rejected;  // the best-predicted candidate's decision vector
+  std::mutex mu;
+  v->pass = [&](const planner::JumpPlan& p) {
+    std::lock_guard lock(mu);
+    const std::vector<double> d(p.decision.data(), p.decision.data() + p.decision.size());
+    if (rejected.empty()) return true;
+    return d != rejected;
+  };
+  PipelineFixture f(c, v);
+  const MissResult first = f.pipeline.run(f.inputs(request(0.5), true));
+  ASSERT_TRUE(first.answer.has_value());
+  EXPECT_EQ(first.answer->verification.returned_candidate_rank, 0);
+  EXPECT_EQ(first.answer->verification.candidates_verified, 3);
+  {
+    std::lock_guard lock(mu);
+    const auto& d = first.answer->plan.decision;
+    rejected.assign(d.data(), d.data() + d.size());
+  }
+  const MissResult second = f.pipeline.run(f.inputs(request(0.5), true));
+  ASSERT_TRUE(second.answer.has_value());
+  EXPECT_EQ(second.answer->verification.status, VerificationStatus::Passed);
+  EXPECT_GE(second.answer->verification.returned_candidate_rank, 1);
+  EXPECT_EQ(second.solution->verification.status, VerificationStatus::Passed);
+  EXPECT_EQ(second.solution->verification.returned_candidate_rank,
+            second.answer->verification.returned_candidate_rank);
+  EXPECT_EQ(v->calls.load(), 6);
+}
+
+TEST(MissPipeline, CancelledOrOutOfTimeIsAnErrorNeverAnAnswer) {
+  auto* v = new ScriptedVerifier;
+  PipelineFixture f(coreConfig(), v);
+  f.cancel = true;
+  const MissResult cancelled = f.pipeline.run(f.inputs(request(0.7), true));
+  ASSERT_TRUE(cancelled.error.has_value());
+  EXPECT_EQ(cancelled.error->code(), ErrorCode::Cancelled);
+  EXPECT_FALSE(cancelled.answer.has_value());
+  f.cancel = false;
+  // The verifications take longer than the budget left after the search.
+  v->delay = 2s;
+  const MissResult late = f.pipeline.run(f.inputs(request(0.7), true, 1500ms));
+  ASSERT_TRUE(late.error.has_value());
+  EXPECT_EQ(late.error->code(), ErrorCode::DeadlineExceeded);
+  EXPECT_FALSE(late.answer.has_value());
 }
 
 }  // namespace

@@ -119,6 +119,21 @@ TEST(RequestValidation, EveryBadFieldIsNamedWithItsRange) {
       {"inf stamp",
        [](auto& r) { r.mutable_state()->set_stamp_s(kInf); },
        {"state.stamp_s", "finite"}},
+      {"stamp at -1e308",
+       [](auto& r) { r.mutable_state()->set_stamp_s(-1e308); },
+       {"state.stamp_s", "[0, 1e+10]", "-1e+308"}},
+      {"negative stamp",
+       [](auto& r) { r.mutable_state()->set_stamp_s(-0.5); },
+       {"state.stamp_s", "[0, 1e+10]"}},
+      {"stamp in the year 3000",
+       [](auto& r) { r.mutable_state()->set_stamp_s(3.25e10); },
+       {"state.stamp_s", "[0, 1e+10]"}},
+      {"control character in the id",
+       [](auto& r) { r.set_request_id(std::string("ab\ncd")); },
+       {"request_id", "control characters", "byte 10 at index 2"}},
+      {"NUL in the id",
+       [](auto& r) { r.set_request_id(std::string("ab\0cd", 5)); },
+       {"request_id", "byte 0 at index 2"}},
       {"no event",
        [](auto& r) { r.mutable_task()->set_event(v1::TARGET_EVENT_UNSPECIFIED); },
        {"task.event", "TARGET_EVENT_APEX"}},
@@ -184,6 +199,165 @@ TEST(RequestValidation, EveryBadFieldIsNamedWithItsRange) {
   }
 }
 
+// Every numeric field of the request, found by reflection (nested messages and the first
+// element of repeated fields included), set in turn to each absurd value: each is refused with
+// INVALID_ARGUMENT naming the field (or, for a quaternion component, the quaternion). Each enum
+// field set to an unknown value is refused the same way. A field added to the contract is
+// covered without touching this test; one the service may accept at any value is listed.
+namespace pb = google::protobuf;
+
+struct FieldPath {
+  std::vector<const pb::FieldDescriptor*> path;  ///< from the request down to the scalar
+  std::string name() const {
+    std::string n;
+    for (const auto* f : path) n += (n.empty() ? "" : ".") + f->name();
+    return n;
+  }
+};
+
+void collectScalars(const pb::Descriptor* d, std::vector<const pb::FieldDescriptor*> prefix,
+                    std::vector<FieldPath>& out) {
+  for (int i = 0; i < d->field_count(); ++i) {
+    const pb::FieldDescriptor* f = d->field(i);
+    auto path = prefix;
+    path.push_back(f);
+    if (f->type() == pb::FieldDescriptor::TYPE_MESSAGE)
+      collectScalars(f->message_type(), path, out);
+    else
+      out.push_back({path});
+  }
+}
+
+// The message holding the last field of `p`, created on the way down (repeated: the element
+// index 0 must exist; the base request has every repeated field non-empty or scalar).
+pb::Message* holderOf(pb::Message& root, const FieldPath& p) {
+  pb::Message* m = &root;
+  for (std::size_t i = 0; i + 1 < p.path.size(); ++i)
+    m = m->GetReflection()->MutableMessage(m, p.path[i]);
+  return m;
+}
+
+void setNumber(pb::Message& m, const pb::FieldDescriptor* f, double v) {
+  const pb::Reflection* r = m.GetReflection();
+  if (f->is_repeated()) {
+    ASSERT_EQ(f->cpp_type(), pb::FieldDescriptor::CPPTYPE_DOUBLE) << f->full_name();
+    ASSERT_GT(r->FieldSize(m, f), 0) << f->full_name();
+    r->SetRepeatedDouble(&m, f, 0, v);
+    return;
+  }
+  ASSERT_EQ(f->cpp_type(), pb::FieldDescriptor::CPPTYPE_DOUBLE) << f->full_name();
+  r->SetDouble(&m, f, v);
+}
+
+// Fields any value of which is meaningful: the seed, a switch.
+bool acceptsAnyValue(const std::string& name) {
+  return name == "budget.seed" || name == "budget.skip_verification";
+}
+
+// Checks every scalar of `base` (accepted as is) through `refusal` ("" = accepted).
+void expectEveryFieldGuarded(const pb::Message& base,
+                             const std::function<std::string(const pb::Message&)>& refusal,
+                             int expected_doubles) {
+  ASSERT_EQ(refusal(base), "") << "the base request must be accepted";
+  std::vector<FieldPath> fields;
+  collectScalars(base.GetDescriptor(), {}, fields);
+  int doubles = 0;
+  for (const FieldPath& p : fields) {
+    const std::string name = p.name();
+    const pb::FieldDescriptor* f = p.path.back();
+    const bool in_quaternion = f->containing_type()->name() == "Quaternion";
+    const std::string parent = name.substr(0, name.rfind('.'));
+    const auto expectRefused = [&](const std::unique_ptr<pb::Message>& m, const std::string& what) {
+      const std::string message = refusal(*m);
+      EXPECT_FALSE(message.empty()) << name << " = " << what << " accepted";
+      const bool named = message.find(name) != std::string::npos ||
+                         (in_quaternion && message.find(parent) != std::string::npos);
+      EXPECT_TRUE(named) << name << " = " << what
+                         << ": the message names another field: " << message;
+    };
+    switch (f->cpp_type()) {
+      case pb::FieldDescriptor::CPPTYPE_DOUBLE: {
+        ++doubles;
+        for (const double v : {kNaN, kInf, -kInf, 1e308, -1e308}) {
+          std::unique_ptr<pb::Message> m(base.New());
+          m->CopyFrom(base);
+          setNumber(*holderOf(*m, p), f, v);
+          expectRefused(m, std::to_string(v));
+        }
+        break;
+      }
+      case pb::FieldDescriptor::CPPTYPE_ENUM: {
+        std::unique_ptr<pb::Message> m(base.New());
+        m->CopyFrom(base);
+        pb::Message* h = holderOf(*m, p);
+        h->GetReflection()->SetEnumValue(h, f, 99);
+        expectRefused(m, "99 (unknown enum value)");
+        break;
+      }
+      case pb::FieldDescriptor::CPPTYPE_UINT32: {
+        if (acceptsAnyValue(name)) break;
+        std::unique_ptr<pb::Message> m(base.New());
+        m->CopyFrom(base);
+        pb::Message* h = holderOf(*m, p);
+        h->GetReflection()->SetUInt32(h, f, std::numeric_limits<std::uint32_t>::max());
+        expectRefused(m, "UINT32_MAX");
+        break;
+      }
+      case pb::FieldDescriptor::CPPTYPE_STRING: {
+        std::unique_ptr<pb::Message> m(base.New());
+        m->CopyFrom(base);
+        pb::Message* h = holderOf(*m, p);
+        h->GetReflection()->SetString(h, f, std::string(1000, 'x'));
+        expectRefused(m, "a 1000-byte string");
+        break;
+      }
+      default:
+        EXPECT_TRUE(acceptsAnyValue(name)) << name << ": no absurd value tried for this type";
+    }
+  }
+  EXPECT_EQ(doubles, expected_doubles) << "the contract's double fields changed";
+}
+
+TEST(RequestValidation, EveryFieldOfPlanJumpRefusesAbsurdValues) {
+  v1::PlanJumpRequest base = test::standingRequest(1.0);
+  auto* o = base.mutable_task()->mutable_obstacle();
+  o->set_x_min_m(1.0);
+  o->set_x_max_m(1.2);
+  o->set_height_m(0.2);
+  base.mutable_state()->set_stamp_s(12.5);
+  base.mutable_budget()->set_seed(7);
+  // position 3 + quaternion 4 + velocities 6 + joints 2 (repeated) + stamp 1 + task 3 + box 3
+  expectEveryFieldGuarded(
+      base,
+      [](const pb::Message& m) { return rejection(static_cast<const v1::PlanJumpRequest&>(m)); },
+      22);
+}
+
+TEST(RequestValidation, EveryFieldOfWarmCacheRefusesAbsurdValues) {
+  const planner::InitialState nominal = toPlanRequest(test::standingRequest(0.0), robot()).initial;
+  v1::WarmCacheRequest base;
+  *base.mutable_task() = test::standingRequest(0.0).task();
+  base.set_v0_min_m_s(0.0);
+  base.set_v0_max_m_s(0.2);
+  base.set_v0_step_m_s(0.05);
+  auto* o = base.mutable_task()->mutable_obstacle();
+  o->set_x_min_m(1.0);
+  o->set_x_max_m(1.2);
+  o->set_height_m(0.2);
+  expectEveryFieldGuarded(
+      base,
+      [&nominal](const pb::Message& m) -> std::string {
+        try {
+          toWarmRequest(static_cast<const v1::WarmCacheRequest&>(m), robot(), nominal);
+        } catch (const ServiceError& e) {
+          EXPECT_EQ(e.code(), ErrorCode::InvalidArgument) << e.what();
+          return e.what();
+        }
+        return "";
+      },
+      9);  // task 3 + box 3 + grid 3
+}
+
 TEST(RequestValidation, ConvertsToTheJumpFrame) {
   v1::PlanJumpRequest r = test::standingRequest(0.0);
   // Heading 90 degrees left (yaw about z), pitched 0.2 rad nose-up, rolling at 2 m/s along the
@@ -230,7 +404,9 @@ TEST(RequestValidation, WarmCacheGrid) {
   };
   v1::WarmCacheRequest bad = w;
   bad.set_v0_step_m_s(0.0);
-  EXPECT_NE(rejected(bad).find("v0_step_m_s must be finite and > 0"), std::string::npos);
+  EXPECT_NE(rejected(bad).find("v0_step_m_s must be finite and in (0, 5]"), std::string::npos);
+  bad.set_v0_step_m_s(6.0);
+  EXPECT_NE(rejected(bad).find("v0_step_m_s must be finite and in (0, 5]"), std::string::npos);
   bad = w;
   bad.set_v0_max_m_s(4.0);
   bad.set_v0_min_m_s(-1.0);

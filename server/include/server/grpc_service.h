@@ -11,6 +11,7 @@
 #include <chrono>
 
 #include "server/config.h"
+#include "server/hot_responses.h"
 #include "server/planning_core.h"
 #include "wheeljump/planner/v1/jump_planner.grpc.pb.h"
 
@@ -59,6 +60,7 @@ class JumpPlannerService final : public wheeljump::planner::v1::JumpPlanner::Cal
 
   PlanningCore& core_;
   ServerConfig config_;
+  HotResponses hot_;  ///< ready responses of bins (cache.hot_responses_mb; 0 = off)
   std::atomic<int> inflight_{0};
   PlanJumpArenaAllocator allocator_;
 };

@@ -1,8 +1,9 @@
 #pragma once
 /// @file The core of the service, free of gRPC: cache lookup, coalescing of identical misses,
-/// the deadline turned into planning and verification budgets, planning on a bounded pool,
-/// parallel verification of the best candidates, and the statistics. The RPC layer validates and
-/// converts requests, hands them here with a completion callback, and returns at once.
+/// the deadline turned into a budget, the pools and their lanes, WarmCache, and the statistics.
+/// What one miss does (search, verification of the best candidates, choice) is MissPipeline's. The
+/// RPC layer validates and converts requests, hands them here with a completion callback, and
+/// returns at once.
 
 #include <array>
 #include <atomic>
@@ -22,14 +23,13 @@
 #include "server/config.h"
 #include "server/executor.h"
 #include "server/latency_histogram.h"
+#include "server/miss_pipeline.h"
 #include "server/plan_types.h"
 #include "server/plan_verifier.h"
 #include "server/service_error.h"
 #include "server/solution_cache.h"
 
 namespace wj::server {
-
-using Clock = std::chrono::steady_clock;
 
 /// An answer, or the error that replaced it.
 struct PlanOutcome {
@@ -139,6 +139,12 @@ class PlanningCore {
   /// progress through `call`. RESOURCE_EXHAUSTED at once when max_streams calls are running.
   void warm(WarmRequest request, std::shared_ptr<WarmCall> call);
 
+  /// The memory cache's entry that would answer `request` (key `key`) as a hit now: none on a
+  /// miss, or when the request wants verification and the entry was computed without it. Cheap
+  /// (one lock, one lookup): the RPC layer's hot tier checks its responses against it.
+  std::optional<CachedSolution> findHit(const PlanRequest& request, const CacheKey& key);
+  /// Counts a hit answered by the RPC layer's hot tier, `ms` after it was received.
+  void recordHotHit(double ms);
   /// Counts a PlanJump call received (valid or not) / refused as invalid.
   void recordRequest() { requests_.fetch_add(1); }
   void recordInvalid() { rejected_invalid_.fetch_add(1); }
@@ -164,7 +170,6 @@ class PlanningCore {
   struct WarmState;
 
   bool wantsVerification(const PlanRequest& r) const;
-  int candidatesFor(const PlanRequest& r) const;
   std::uint64_t effectiveSeed(const PlanRequest& r) const;
   /// Records the outcome's statistics and completes the call.
   void finish(const std::shared_ptr<PlanCall>& call, PlanOutcome&& outcome);
@@ -172,7 +177,10 @@ class PlanningCore {
                  std::shared_ptr<PlanCall> call, BoundedExecutor::Lane lane);
   void startComputation(PlanRequest request, CacheKey key, std::shared_ptr<PlanCall> call,
                         BoundedExecutor::Lane lane);
+  /// The leader's miss: the second level, then the pipeline; completes every caller.
   void runComputation(const std::shared_ptr<Computation>& c);
+  /// Answers `c` from the second-level store if it holds a usable entry; false otherwise.
+  bool answerFromPersisted(const std::shared_ptr<Computation>& c, const PlanRequest& request);
   /// Completes every live caller of `c` (the leader with `leader_answer` if given, the others
   /// from `solution`), or all with `error`.
   void finishComputation(const std::shared_ptr<Computation>& c,
@@ -194,6 +202,7 @@ class PlanningCore {
   BoundedExecutor hit_pool_;
   BoundedExecutor plan_pool_;
   BoundedExecutor verify_pool_;
+  MissPipeline pipeline_;  ///< after the planner, verifier and verify pool it refers to
   const Clock::time_point started_;
 
   std::mutex mu_;  ///< guards inflight_, stopping_, warm_streams_
@@ -205,8 +214,6 @@ class PlanningCore {
   std::atomic<std::uint64_t> requests_{0}, hits_{0}, misses_{0}, coalesced_{0}, warm_starts_{0};
   std::atomic<std::uint64_t> rejected_invalid_{0}, rejected_queue_full_{0}, deadline_exceeded_{0};
   std::array<LatencyHistogram, kNumPlanSources> latency_;
-  /// Running estimate of one DE generation's wall time [ms] (the DE's clock granularity).
-  std::atomic<double> generation_ms_{20.0};
 };
 
 }  // namespace wj::server

@@ -28,6 +28,9 @@ struct RequestBounds {
   static constexpr std::uint32_t kMaxEvaluations = 10'000'000;
   static constexpr std::uint32_t kMaxVerifiedCandidates = 64;
   static constexpr std::size_t kMaxRequestIdBytes = 128;
+  /// state.stamp_s is the robot's clock (not comparable with the server's): since boot or since
+  /// the Unix epoch, both in [0, 1e10] s (1e10 s is the year 2286); 0 = not given.
+  static constexpr double kMaxStampS = 1.0e10;
   static constexpr int kMaxWarmGridPoints = 1000;
 };
 

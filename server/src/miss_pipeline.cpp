@@ -1,0 +1,307 @@
+#include "server/miss_pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+
+namespace wj::server {
+
+namespace {
+
+double msBetween(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+std::int64_t unixMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// Multibody verdicts of a batch of candidates, filled by the verify pool.
+struct VerifyBatch {
+  explicit VerifyBatch(std::size_t n) : verdicts(n) {}
+  std::mutex mu;
+  std::condition_variable cv;
+  std::vector<std::optional<VerifierVerdict>> verdicts;  ///< nullopt: not run (yet)
+  std::size_t finished = 0;                              ///< run or skipped
+  std::atomic<bool> abandoned{false};                    ///< the requester stopped waiting
+};
+
+}  // namespace
+
+std::optional<std::size_t> chooseVerified(
+    const std::vector<std::optional<VerifierVerdict>>& verdicts,
+    const std::vector<bool>& feasible) {
+  for (std::size_t k = 0; k < verdicts.size(); ++k)
+    if (verdicts[k] && verdicts[k]->passed && feasible[k]) return k;
+  for (std::size_t k = 0; k < verdicts.size(); ++k)
+    if (verdicts[k] && verdicts[k]->passed) return k;
+  for (std::size_t k = 0; k < verdicts.size(); ++k)
+    if (verdicts[k]) return k;
+  return std::nullopt;
+}
+
+/// The outcome of verifying the top K: the chosen candidate, its plan and what the answer and
+/// the cache say of its verification; or the error that replaces them.
+struct MissPipeline::Verified {
+  std::optional<ServiceError> error;
+  std::size_t chosen = 0;
+  planner::JumpPlan plan;
+  VerificationSummary summary;
+  StoredVerification stored;
+  double verify_ms = 0.0;
+};
+
+MissPipeline::MissPipeline(const ServerConfig& config, const planner::JumpPlanner& planner,
+                           const PlanVerifier* verifier, BoundedExecutor& verify_pool)
+    : config_(config), planner_(planner), verifier_(verifier), verify_pool_(verify_pool) {}
+
+planner::PlanOptions MissPipeline::searchOptions(const MissInputs& in) const {
+  const PlanRequest& request = in.request;
+  const double verify_reserve =
+      in.verify ? in.remaining_s * config_.verification.budget_fraction : 0.0;
+  const double search = in.remaining_s - verify_reserve;
+  const auto& settings = planner_.settings();
+  const bool polish = settings.polish && search >= config_.planner.polish_min_budget_s;
+  // The DE checks its clock once per generation, so it may overrun its budget by one; two
+  // generations (measured on earlier plans) are kept back, plus the time to build the plans.
+  const double generation_s = generation_ms_.load() / 1e3;
+  double de_budget =
+      search - (polish ? config_.planner.polish_reserve_s : 0.0) - 2.0 * generation_s - 0.005;
+  if (settings.de.time_budget_s > 0) de_budget = std::min(de_budget, settings.de.time_budget_s);
+
+  planner::PlanOptions options;
+  options.seed = in.seed;
+  options.max_evaluations = std::min(request.max_evaluations.value_or(settings.de.max_evaluations),
+                                     config_.planner.max_evaluations_cap);
+  options.max_evaluations =
+      std::max<std::int64_t>(*options.max_evaluations, settings.de.population_size);
+  options.time_budget_s = std::max(de_budget, 1e-3);
+  options.threads = config_.planner.de_threads;
+  options.polish = polish;
+  if (in.verify) {
+    const int asked = request.max_verified_candidates > 0 ? request.max_verified_candidates
+                                                          : config_.verification.default_candidates;
+    options.num_candidates = std::clamp(asked, 1, config_.verification.max_candidates);
+  } else {
+    options.num_candidates = 1;
+  }
+  options.cancel = in.cancel;
+  if (in.warm_start.cols() > 0) options.warm_start = in.warm_start;
+  return options;
+}
+
+MissPipeline::Verified MissPipeline::verifyTopK(const MissInputs& in,
+                                                const planner::PlannerResult& result) const {
+  // The best K distinct candidates, simulated in parallel on the verify pool.
+  Verified out;
+  const auto t_verify = Clock::now();
+  const planner::JumpModel model(planner_.robot(), planner_.settings(), in.request.task,
+                                 in.request.initial);
+  std::vector<planner::JumpPlan> plans;
+  plans.reserve(result.candidates.size());
+  plans.push_back(result.plan);
+  for (std::size_t k = 1; k < result.candidates.size(); ++k)
+    plans.push_back(model.buildPlan(result.candidates[k].u, &result.candidates[k].evaluation));
+  auto shared_plans = std::make_shared<const std::vector<planner::JumpPlan>>(std::move(plans));
+  auto batch = std::make_shared<VerifyBatch>(shared_plans->size());
+  const planner::JumpTask task = in.request.task;
+  const PlanVerifier* verifier = verifier_;
+  for (std::size_t k = 0; k < shared_plans->size(); ++k) {
+    Task t;
+    t.run = [verifier, batch, shared_plans, task, k] {
+      std::optional<VerifierVerdict> verdict;
+      if (!batch->abandoned) {
+        try {
+          verdict = verifier->verify((*shared_plans)[k], task);
+        } catch (const std::exception& e) {
+          verdict = VerifierVerdict{};
+          verdict->reasons.push_back(std::string("verifier error: ") + e.what());
+        }
+      }
+      std::lock_guard lock(batch->mu);
+      batch->verdicts[k] = std::move(verdict);
+      ++batch->finished;
+      batch->cv.notify_all();
+    };
+    t.abandon = [batch] {
+      std::lock_guard lock(batch->mu);
+      ++batch->finished;
+      batch->cv.notify_all();
+    };
+    if (!verify_pool_.trySubmit(std::move(t), BoundedExecutor::Lane::Internal)) {
+      std::lock_guard lock(batch->mu);
+      ++batch->finished;
+    }
+  }
+  std::vector<std::optional<VerifierVerdict>> verdicts;
+  {
+    std::unique_lock lock(batch->mu);
+    while (batch->finished < batch->verdicts.size() && !*in.cancel && Clock::now() < in.budget_end)
+      batch->cv.wait_until(lock,
+                           std::min(in.budget_end, Clock::now() + std::chrono::milliseconds(20)));
+    batch->abandoned = true;
+    verdicts = batch->verdicts;
+  }
+  out.verify_ms = msBetween(t_verify, Clock::now());
+  if (*in.cancel) {
+    out.error = ServiceError(ErrorCode::Cancelled, "the call was cancelled");
+    return out;
+  }
+  std::vector<bool> feasible;
+  for (const auto& c : result.candidates) feasible.push_back(c.evaluation.feasible);
+  const auto pick = chooseVerified(verdicts, feasible);
+  if (!pick) {
+    out.error = ServiceError(ErrorCode::DeadlineExceeded,
+                             "no candidate finished its verification within the deadline (" +
+                                 std::to_string(verdicts.size()) + " started)");
+    return out;
+  }
+  int verified = 0;
+  for (const auto& v : verdicts) verified += v ? 1 : 0;
+  out.chosen = *pick;
+  const VerifierVerdict& v = *verdicts[out.chosen];
+  out.plan = (*shared_plans)[out.chosen];
+  out.summary.status = v.passed ? VerificationStatus::Passed : VerificationStatus::Failed;
+  out.summary.failure_reasons = v.reasons;
+  out.summary.simulated = v.simulated;
+  out.summary.max_envelope_ratio = v.max_envelope_ratio;
+  out.summary.landed_upright = v.landed_upright;
+  out.summary.candidates_verified = verified;
+  out.summary.returned_candidate_rank = static_cast<int>(out.chosen);
+  out.stored.status = out.summary.status;
+  out.stored.failure_bits = v.failure_bits;
+  out.stored.simulated = v.simulated;
+  out.stored.max_envelope_ratio = v.max_envelope_ratio;
+  out.stored.landed_upright = v.landed_upright;
+  out.stored.candidates_verified = static_cast<std::uint16_t>(verified);
+  out.stored.returned_candidate_rank = static_cast<std::uint16_t>(out.chosen);
+  out.stored.verify_ms = static_cast<float>(out.verify_ms);
+  return out;
+}
+
+std::string MissPipeline::notRunReason(const PlanRequest& request) const {
+  if (!config_.verification.enabled)
+    return "not run: disabled in the server configuration (verification.enabled)";
+  if (!request.skip_verification)
+    return "verification unavailable: this server was built without the sim component";
+  return "not run: skipped by the request (budget.skip_verification)";
+}
+
+CachedSolution MissPipeline::compactSolution(const planner::PlannerResult& result,
+                                             const planner::Candidate& chosen,
+                                             const PlanAnswer& answer,
+                                             const StoredVerification& verification,
+                                             std::uint64_t seed, bool de_complete) const {
+  CachedSolution solution;
+  for (int i = 0; i < planner::kNumDecision; ++i)
+    solution.u[static_cast<std::size_t>(i)] = chosen.u[i];
+  solution.t1 = answer.plan.t1;
+  solution.t2 = answer.plan.t2;
+  solution.t3 = answer.plan.t3;
+  solution.feasible = chosen.evaluation.feasible;
+  solution.de_complete = de_complete;
+  solution.de_cost = result.de_cost;
+  solution.final_cost = chosen.evaluation.cost;
+  solution.seed = seed;
+  solution.evaluations = result.de.evaluations;
+  solution.generations = result.de.generations;
+  solution.de_ms = static_cast<float>(result.de_ms);
+  solution.polish_ms = static_cast<float>(result.polish_ms);
+  solution.verification = verification;
+  solution.created_unix_ms = unixMs();
+  return solution;
+}
+
+MissResult MissPipeline::run(const MissInputs& in) {
+  MissResult out;
+  const PlanRequest& request = in.request;
+  const planner::PlanOptions options = searchOptions(in);
+  planner::PlannerResult result;
+  try {
+    result = planner_.plan(request.task, request.initial, options);
+  } catch (...) {
+    out.error = classifyException(std::current_exception());
+    return out;
+  }
+  if (result.de.generations > 0) {
+    const double measured = result.de_ms / (result.de.generations + 1);
+    generation_ms_.store(0.8 * generation_ms_.load() + 0.2 * measured);
+  }
+  if (*in.cancel) {
+    out.error = ServiceError(ErrorCode::Cancelled, "the call was cancelled");
+    return out;
+  }
+  if (Clock::now() > in.budget_end) {
+    out.error =
+        ServiceError(ErrorCode::DeadlineExceeded, "planning did not finish within the deadline");
+    return out;
+  }
+
+  PlanAnswer answer;
+  answer.stats.de_ms = result.de_ms;
+  answer.stats.polish_ms = result.polish_ms;
+  answer.stats.evaluations = result.de.evaluations;
+  answer.stats.generations = result.de.generations;
+  answer.stats.threads = *options.threads;
+  answer.stats.de_cost = result.de_cost;
+  answer.stats.polished_cost = result.final_cost;
+  answer.stats.seed = *options.seed;
+  answer.stats.cache_key = in.cache_key_hex;
+  const bool de_complete = result.de.stop_reason != planner::de::StopReason::TimeBudget &&
+                           result.de.stop_reason != planner::de::StopReason::Cancelled;
+  if (!result.evaluation.valid) {
+    // No dynamically valid trajectory at all: a normal, infeasible answer without a plan.
+    answer.evaluation = result.evaluation;
+    answer.binding = result.binding;
+    answer.summary = result.summary;
+    out.answer = std::move(answer);
+    return out;
+  }
+
+  std::size_t chosen = 0;  // rank of the returned candidate
+  StoredVerification stored_verification;
+  if (in.verify) {
+    Verified v = verifyTopK(in, result);
+    answer.stats.verify_ms = v.verify_ms;
+    if (v.error) {
+      out.error = std::move(v.error);
+      return out;
+    }
+    chosen = v.chosen;
+    answer.plan = std::move(v.plan);
+    answer.verification = std::move(v.summary);
+    stored_verification = v.stored;
+  } else {
+    answer.plan = std::move(result.plan);
+    answer.verification.failure_reasons.push_back(notRunReason(request));
+  }
+  const auto& cand = result.candidates[chosen];
+  if (request.trajectory == TrajectoryFormat::Knots && answer.plan.numSamples() > 0) {
+    // The verifier ran the dense references; the answer carries the same plan as knots.
+    const planner::JumpModel model(planner_.robot(), planner_.settings(), request.task,
+                                   request.initial);
+    answer.plan = model.buildKnots(cand.u, &cand.evaluation);
+  }
+  answer.evaluation = cand.evaluation;
+  if (chosen == 0) {
+    answer.binding = result.binding;
+    answer.summary = result.summary;
+  } else {
+    describeEvaluation(answer.evaluation, planner_.settings().polish_backoff, answer.binding,
+                       answer.summary);
+  }
+  out.solution =
+      compactSolution(result, cand, answer, stored_verification, *options.seed, de_complete);
+  // A search cut short by the clock that found nothing feasible may do better with more time:
+  // it is answered but not cached.
+  out.cacheable = de_complete || out.solution->feasible;
+  out.answer = std::move(answer);
+  return out;
+}
+
+}  // namespace wj::server

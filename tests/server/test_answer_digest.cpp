@@ -1,0 +1,135 @@
+// Answer digests: the service's answer for every preset at seed 7, through the PlanningCore with
+// the Simbody verifier, serialized as the PlanJump response and reduced to a 64-bit digest of its
+// bytes, compared with tests/server/golden/answer_digests.txt. Three answers per preset: the miss
+// (DE, polish, verification of the top K, the choice), the hit that follows (the compact cache
+// entry regenerated), and the same hit asked for as knots. The wall-clock fields (de_ms,
+// polish_ms, verify_ms, total_ms) are zeroed; every other bit counts. A refactoring commit must
+// leave the file unchanged; a commit that changes answers on purpose regenerates it and says why:
+//   WJ_UPDATE_ANSWER_DIGESTS=1 ./build/release/bin/server_test_answer_digest
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <future>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <string>
+
+#include "planner/presets.h"
+#include "server/planning_core.h"
+#include "server/response_conversion.h"
+#include "server_test_util.h"
+
+namespace wj::server {
+namespace {
+
+const char* const kGoldenFile = WJ_SERVER_GOLDEN_DIR "/answer_digests.txt";
+
+std::string fnv1aHex(const std::string& bytes) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  for (const unsigned char c : bytes) h = (h ^ c) * 0x100000001b3ULL;
+  std::ostringstream o;
+  o << std::hex << h;
+  return o.str();
+}
+
+/// The response's bytes (deterministic serialization) with the wall-clock fields zeroed.
+std::string answerDigest(const PlanOutcome& o, const model::RobotModel& robot) {
+  if (o.error) return "error:" + std::to_string(static_cast<int>(o.error->code()));
+  v1::PlanJumpResponse r;
+  toProto(o.answer, robot, "digest", &r);
+  auto* s = r.mutable_stats();
+  s->set_de_ms(0.0);
+  s->set_polish_ms(0.0);
+  s->set_verify_ms(0.0);
+  s->set_total_ms(0.0);
+  std::string bytes;
+  google::protobuf::io::StringOutputStream stream(&bytes);
+  google::protobuf::io::CodedOutputStream coded(&stream);
+  coded.SetSerializationDeterministic(true);
+  r.SerializeToCodedStream(&coded);
+  coded.Trim();
+  return fnv1aHex(bytes);
+}
+
+PlanOutcome ask(PlanningCore& core, PlanRequest request) {
+  std::promise<PlanOutcome> done;
+  auto future = done.get_future();
+  auto call =
+      std::make_shared<PlanCall>(Clock::now() + std::chrono::seconds(120),
+                                 [&done](PlanOutcome&& o) { done.set_value(std::move(o)); });
+  core.plan(std::move(request), call);
+  return future.get();
+}
+
+std::map<std::string, std::string> readGolden() {
+  std::map<std::string, std::string> golden;
+  std::ifstream in(kGoldenFile);
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    std::string name, hex;
+    ls >> name >> hex;
+    golden[name] = hex;
+  }
+  return golden;
+}
+
+TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
+  if (!simVerifierAvailable()) GTEST_SKIP() << "built without the sim component";
+  ServerConfig config = test::testConfig("/nonexistent");
+  config.cache.path.clear();
+  config.planner.settings_file.clear();  // the planner's defaults, as tests/planner's digests
+  config.verification.enabled = true;
+  config.deadlines.max_s = 120.0;
+  const model::RobotModel robot = model::RobotModel::loadDefault();
+  PlanningCore core(config, robot, planner::PlannerSettings{},
+                    makeSimVerifier(robot, config.verification), nullptr);
+  std::map<std::string, std::string> now;
+  for (const std::string& name : planner::presetNames()) {
+    const planner::Scenario sc = planner::makePreset(core.planner(), name);
+    PlanRequest r;
+    r.task = sc.task;
+    r.initial = sc.initial;
+    r.seed = 7;
+    r.request_id = "digest";
+    const PlanOutcome miss = ask(core, r);
+    ASSERT_FALSE(miss.error.has_value()) << name << ": " << miss.error->what();
+    EXPECT_EQ(miss.answer.source, PlanSource::CacheMiss) << name;
+    EXPECT_GT(miss.answer.plan.numSamples(), 0) << name;
+    EXPECT_NE(miss.answer.verification.status, VerificationStatus::NotRun) << name;
+    std::cout << name << ": " << miss.answer.stats.evaluations << " evaluations, feasible "
+              << miss.answer.evaluation.feasible << ", verification "
+              << static_cast<int>(miss.answer.verification.status) << " ("
+              << miss.answer.verification.candidates_verified << " verified, rank "
+              << miss.answer.verification.returned_candidate_rank << ")\n";
+    now[name + "/miss"] = answerDigest(miss, core.robot());
+    const PlanOutcome hit = ask(core, r);
+    EXPECT_EQ(hit.answer.source, PlanSource::CacheHit) << name;
+    now[name + "/hit"] = answerDigest(hit, core.robot());
+    r.trajectory = TrajectoryFormat::Knots;
+    now[name + "/hit_knots"] = answerDigest(ask(core, r), core.robot());
+  }
+  if (const char* u = std::getenv("WJ_UPDATE_ANSWER_DIGESTS"); u != nullptr && *u == '1') {
+    std::ofstream out(kGoldenFile);
+    out << "# preset/path digest (tests/server/test_answer_digest.cpp; seed 7, Simbody verifier)\n";
+    for (const auto& [name, hex] : now) out << name << ' ' << hex << '\n';
+    GTEST_SKIP() << "rewrote " << kGoldenFile;
+  }
+  const auto golden = readGolden();
+  ASSERT_FALSE(golden.empty()) << "no digests in " << kGoldenFile;
+  for (const auto& [name, hex] : now) {
+    const auto it = golden.find(name);
+    ASSERT_NE(it, golden.end()) << "no golden digest for " << name;
+    EXPECT_EQ(hex, it->second) << "the answer " << name
+                               << " changed; if on purpose, regenerate (see the file's head)";
+  }
+  // The digest sees every bit: a hit and a miss of one preset differ (the source at least).
+  EXPECT_NE(now["forward/miss"], now["forward/hit"]);
+}
+
+}  // namespace
+}  // namespace wj::server
