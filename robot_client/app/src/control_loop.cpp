@@ -77,7 +77,7 @@ void ControlLoop::setSpeedCommand(double v_target, double accel) {
 
 double ControlLoop::groundHeightAt(double x) const {
   if (!scenario_.landsOnWall()) return estimator_.groundHeight();
-  const double near = wall_readings_ > 0 ? wall_x_est_ : scenario_.wall_x_m;
+  const double near = wall_readings_ > 0 ? wall_x_est_ : scenario_.wallX(0);
   return x >= near && x <= near + scenario_.wall_thickness_m ? scenario_.wall_height_m : 0.0;
 }
 
@@ -255,8 +255,13 @@ void ControlLoop::step() {
 
   // The wall as the range sensor sees it, averaged in the estimator's frame: the take-off
   // point then follows the wall, not the odometry's drift.
+  // A course: the readings average over the wall being approached only.
   double range_m = 0.0;
   const Mode m_now = fsm_.mode();
+  if (fsm_.wallIndex() != wall_index_) {
+    wall_index_ = fsm_.wallIndex();
+    wall_readings_ = 0;
+  }
   if (range_ != nullptr && (m_now == Mode::Stand || m_now == Mode::Roll || m_now == Mode::Plan) &&
       range_->read(range_m)) {
     const double wall = estimator_.state().p_WB.x() + range_m;

@@ -111,6 +111,7 @@ class ControlLoop {
   RangeSensor* range_;
   double wall_x_est_ = 0.0;  // perceived near face of the wall, estimator frame [m]
   int wall_readings_ = 0;
+  int wall_index_ = 0;  // the state machine's wall the readings belong to
   // A platform the jump lands on (ScenarioSettings::landsOnWall): the ground height under world
   // x, from the perceived near face (the configured one without range readings) [m].
   double groundHeightAt(double x) const;
