@@ -64,6 +64,7 @@ class SimRangeSensor final : public RangeSensor {
     }
     return false;
   }
+  double noiseStd() const override { return kNoiseStd; }
 
  private:
   const sim::SimRobot& sim_;

@@ -48,6 +48,8 @@ struct FaultSource {
 struct RangeSensor {
   virtual ~RangeSensor() = default;
   virtual bool read(double& distance_m) = 0;
+  /// Standard deviation of one reading [m].
+  virtual double noiseStd() const = 0;
 };
 
 class ControlLoop {
@@ -90,6 +92,8 @@ class ControlLoop {
 
  private:
   void estimate();
+  // Reads the range sensor: a position fix for the estimator and the wall's perceived place.
+  void senseRange();
   void updateContacts();
   void computeCommands(const FsmOutput& out);
   void applySafety();
