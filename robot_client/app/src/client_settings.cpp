@@ -49,6 +49,7 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.wall_thickness_m, 0.01, 20.0, p + "wall.thickness_m");
   inRange(s.wall_height_m, 0.01, 1.0, p + "wall.height_m");
   inRange(s.takeoff_to_wall_m, 0.3, 3.0, p + "takeoff_to_wall_m");
+  inRange(s.takeoff_lead_m, -0.2, 0.2, p + "takeoff_lead_m");
   inRange(s.nmpc_base_height_m, 0.2, 0.45, p + "nmpc_base_height_m");
   inRange(s.decision_margin_m, 0.0, 10.0, p + "decision_margin_m");
   inRange(s.target_dx_m, -3.0, 5.0, p + "target.dx_m");
@@ -100,6 +101,7 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   s.wall_height_m = wall.number("height_m");
   wall.finish();
   s.takeoff_to_wall_m = m.number("takeoff_to_wall_m");
+  if (m.has("takeoff_lead_m")) s.takeoff_lead_m = m.number("takeoff_lead_m");
   s.nmpc_base_height_m = m.number("nmpc_base_height_m");
   s.decision_margin_m = m.number("decision_margin_m");
   StrictYamlMap target = m.map("target");

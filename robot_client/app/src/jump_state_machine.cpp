@@ -72,7 +72,9 @@ std::string_view toString(Reason reason) {
 
 JumpStateMachine::JumpStateMachine(const ScenarioSettings& scenario, const SafetySettings& safety)
     : scenario_(scenario), safety_(safety) {
-  takeoff_com_x_ = scenario_.has_wall ? scenario_.wallX(0) - scenario_.takeoff_to_wall_m : 0.0;
+  takeoff_com_x_ = scenario_.has_wall
+                       ? scenario_.wallX(0) - scenario_.takeoff_to_wall_m - scenario_.takeoff_lead_m
+                       : 0.0;
 }
 
 void JumpStateMachine::enter(Mode to, Reason why, const FsmInput& in) {
@@ -171,7 +173,8 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
           // roll-on speed) and ramps for what remains to the run-up speed.
           out.start_roll = true;
           rolled_on_ = true;
-          takeoff_com_x_ = scenario_.wallX(wall_index_) - scenario_.takeoff_to_wall_m;
+          takeoff_com_x_ =
+              scenario_.wallX(wall_index_) - scenario_.takeoff_to_wall_m - scenario_.takeoff_lead_m;
           ramp_end_t_ =
               in.t + std::abs(scenario_.run_up_speed_m_s - in.speed) / scenario_.acceleration_m_s2;
           enter(Mode::Roll, Reason::NextWall, in);

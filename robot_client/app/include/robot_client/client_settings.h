@@ -97,6 +97,11 @@ struct ScenarioSettings {
   double wall_thickness_m = 0.1;   ///< [m]
   double wall_height_m = 0.25;     ///< [m]
   double takeoff_to_wall_m = 1.2;  ///< CoM to the wall's near face at the start of take-off
+  /// The take-off starts this much before the point the plan was made for (the plan keeps the
+  /// wall at takeoff_to_wall_m) [m]: trades clearance at the far edge for clearance at the near
+  /// edge where the simulated jump and the plan differ (docs/robust.md, "Take-off lead").
+  /// Optional YAML key, default 0.
+  double takeoff_lead_m = 0.0;
   /// Base height the NMPC holds while standing and rolling [m]: the run-up is done in the
   /// posture the jump starts from (the planner plans from the measured posture).
   double nmpc_base_height_m = 0.36;

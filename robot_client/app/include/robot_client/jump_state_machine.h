@@ -107,7 +107,7 @@ class JumpStateMachine {
   /// jump, after the last one, or without a wall.
   void setWallX(double wall_x_m) {
     if (scenario_.has_wall && !inJump() && wall_index_ < scenario_.jumps())
-      takeoff_com_x_ = wall_x_m - scenario_.takeoff_to_wall_m;
+      takeoff_com_x_ = wall_x_m - scenario_.takeoff_to_wall_m - scenario_.takeoff_lead_m;
   }
   /// Decision point: the plan must be in hand before the CoM passes it [m].
   double decisionComX() const { return takeoff_com_x_ - scenario_.decision_margin_m; }
