@@ -230,7 +230,13 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
   }
   if (m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing) {
     sim::PlanExecutor* ex = executor();
-    bool any_contact = false;
+    // Until the plan's lift-off the wheels stand by the plan: the take-off's first tens of
+    // milliseconds unload the legs (the base sinks into the push), the torque-based force of
+    // every wheel can drop under the threshold for longer than the executor's airborne
+    // debounce, and the executor then took the first contact after its flight switch for a
+    // touchdown and extended the legs for the landing right after lift-off (course, second
+    // wall: the front wheels hit its edge).
+    bool any_contact = ex != nullptr && ex->phase() == sim::JumpPhase::Takeoff;
     for (bool c : contact_) any_contact = any_contact || c;
     if (ex != nullptr) ex->update(t_ - takeoff_t_, sensors_, any_contact, commands_);
     return;
