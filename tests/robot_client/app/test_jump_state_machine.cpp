@@ -197,6 +197,22 @@ TEST(JumpStateMachine, ACourseJumpsEveryWallInTurnWithoutStoppingThenRollsOnAndS
   EXPECT_EQ(d.fsm.abortReason(), Reason::Start);
 }
 
+TEST(JumpStateMachine, TheTakeoffLeadMovesTheTakeoffAndDecisionPointsNotTheWall) {
+  ScenarioSettings sc = forward();
+  sc.takeoff_lead_m = 0.05;
+  Drive d(sc);
+  EXPECT_NEAR(d.fsm.takeoffComX(), 10.0 - 1.2 - 0.05, 1e-12);
+  EXPECT_NEAR(d.fsm.decisionComX(), 10.0 - 1.2 - 0.05 - 1.0, 1e-12);
+  d.fsm.setWallX(10.3);  // the range sensor's wall
+  EXPECT_NEAR(d.fsm.takeoffComX(), 10.3 - 1.2 - 0.05, 1e-12);
+  d.in.speed = 3.0;
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
+  d.in.plan = PlanStatus::Feasible;
+  ASSERT_TRUE(d.until(Mode::Takeoff, 10.0));
+  EXPECT_GE(d.in.com_x, 10.3 - 1.25 - 1e-9);
+  EXPECT_LT(d.in.com_x, 10.3 - 1.25 + 0.031);
+}
+
 TEST(JumpStateMachine, ACourseWithoutAPlanForTheNextWallBrakesBeforeIt) {
   ScenarioSettings sc = forward();
   sc.wall_x_m = {10.0, 20.0};
