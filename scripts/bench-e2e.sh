@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Benchmark of the end-to-end forward jump: N sensor-noise seeds of robot_client (simulated
 # robot behind emulated CAN frames) against one planner_server on loopback with an empty cache,
-# then N seeds of the jump onto the 0.25 m platform (simulated robot), then the vertical jump.
+# then N seeds of the jump onto the 0.25 m platform (simulated robot), then N seeds of the
+# course (two walls 10 m apart, jumped in turn), then the vertical jump.
 # Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
 set -euo pipefail
@@ -27,6 +28,11 @@ for seed in $(seq 1 "$SEEDS"); do
   "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
     --planner "127.0.0.1:${PORT}" --scenario platform --seed "$seed" --json "$@" \
     > "$WORK/platform_$seed.json" 2> "$WORK/platform_$seed.log" || true
+done
+for seed in $(seq 1 "$SEEDS"); do
+  "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
+    --planner "127.0.0.1:${PORT}" --scenario course --seed "$seed" --json "$@" \
+    > "$WORK/course_$seed.json" 2> "$WORK/course_$seed.log" || true
 done
 "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
   --planner "127.0.0.1:${PORT}" --scenario vertical --seed 1 --json "$@" \
@@ -64,6 +70,19 @@ for s in range(1, seeds + 1):
                      "final_x_m": sim.get("final_x_m"), "final_speed_m_s": sim.get("final_speed_m_s"),
                      "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"],
                      "transitions": [t["to"] for t in d.get("transitions", [])]})
+course = []
+for s in range(1, seeds + 1):
+    try:
+        d = json.load(open(f"{work}/course_{s}.json"))
+    except Exception as e:
+        course.append({"seed": s, "error": str(e)}); continue
+    sim = d.get("simulated", {})
+    course.append({"seed": s, "success": d["success"], "verdict": d["verdict"],
+                   "walls_jumped": d.get("landings"),
+                   "jump_wall_clearance_m": sim.get("jump_wall_clearance_m"),
+                   "estimator_position_rms_m": sim.get("estimator_position_rms_m"),
+                   "estimator_position_max_m": sim.get("estimator_position_max_m"),
+                   "transitions": [t["to"] for t in d.get("transitions", [])]})
 v = json.load(open(f"{work}/vertical.json"))
 lat = [r["plan_latency_ms"] for r in runs if r.get("plan_latency_ms") is not None]
 print(json.dumps({
@@ -76,6 +95,8 @@ print(json.dumps({
     "platform": {"seeds": seeds, "success": sum(1 for r in platform if r.get("success")),
                  "landed_on_top": sum(1 for r in platform if r.get("landed_on_top")),
                  "platform_height_m": 0.25, "runs": platform},
+    "course": {"seeds": seeds, "success": sum(1 for r in course if r.get("success")),
+               "walls": 2, "runs": course},
     "vertical": {"success": v["success"], "verdict": v["verdict"],
                  "apex_base_z_m": v.get("simulated", {}).get("apex_base_z_m"),
                  "planned_apex_base_z_m": v["plan"]["predicted_apex_base_z_m"],

@@ -10,6 +10,10 @@
 #     --scenario forward --seed SEED --plant failure.yaml
 # Usage: scripts/bench-robust.sh [build dir] [trials] [scenario] [first seed] [robot_client options...]
 # Trial i uses seed = first seed + i - 1 for both the plant draw and the sensor noise.
+# WJ_WALL_ERROR=seen (default) | unseen: the drawn wall position error is seen by the range
+# sensor (the configuration is wrong, the sensor measures the real wall) or not (the sensor has
+# the opposite bias, plant key range_bias_m = -wall_position_error_m, and reads the configured
+# place).
 set -euo pipefail
 # DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
@@ -22,6 +26,8 @@ shift $(( $# > 4 ? 4 : $# ))
 BIN=$BUILD/bin
 WORK=$(mktemp -d)
 PORT=${WJ_BENCH_PORT:-50161}
+WALL_ERROR=${WJ_WALL_ERROR:-seen}
+case "$WALL_ERROR" in seen|unseen) ;; *) echo "WJ_WALL_ERROR must be seen or unseen, got '$WALL_ERROR'" >&2; exit 2;; esac
 source scripts/planner-server.sh
 trap 'stop_planner_server; rm -rf "$WORK"' EXIT
 start_planner_server "$BIN" "$PORT" "$WORK/plan_cache.sqlite" "$WORK/planner_server.yaml" \
@@ -29,9 +35,9 @@ start_planner_server "$BIN" "$PORT" "$WORK/plan_cache.sqlite" "$WORK/planner_ser
 
 # The plant of trial `seed`: the campaign's ranges, drawn by a generator seeded with it.
 draw_plant() {
-  /usr/bin/python3 - "$1" "$2" <<'PY'
+  /usr/bin/python3 - "$1" "$2" "$WALL_ERROR" <<'PY'
 import random, re, sys
-seed, out = int(sys.argv[1]), sys.argv[2]
+seed, out, wall_error = int(sys.argv[1]), sys.argv[2], sys.argv[3]
 # The base's collision box (the URDF's first box) bounds the payload's position.
 urdf = open("models/wheeljump.urdf").read()
 box = [float(v) for v in re.search(r'<box size="([^"]+)"', urdf).group(1).split()]
@@ -55,6 +61,8 @@ plant = {
     "imu_gyro_bias_rad_s": gyro,
     "wall_position_error_m": rng.uniform(-0.1, 0.1),
 }
+if wall_error == "unseen":
+    plant["range_bias_m"] = -plant["wall_position_error_m"]
 def fmt(v):
     if isinstance(v, dict):
         return "{" + ", ".join(f"{k}: {fmt(x)}" for k, x in v.items()) + "}"
@@ -79,9 +87,13 @@ for i in $(seq 1 "$TRIALS"); do
   echo "trial $i/$TRIALS (seed $seed): exit $rc" >&2
 done
 
-/usr/bin/python3 - "$WORK" "$TRIALS" "$FIRST" "$SCENARIO" <<'PY'
+/usr/bin/python3 - "$WORK" "$TRIALS" "$FIRST" "$SCENARIO" "$WALL_ERROR" <<'PY'
 import json, statistics, sys, yaml
 work, trials, first, scenario = sys.argv[1], int(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+wall_error = sys.argv[5]
+# A course lists several walls (wall.x_m), jumped in turn.
+wall_x = yaml.safe_load(open("config/robot_client.yaml"))["scenarios"][scenario]["wall"]["x_m"]
+walls = len(wall_x) if isinstance(wall_x, list) else 1
 
 def classify(d, rc):
     """One failure class per trial (None: success), first match wins."""
@@ -97,6 +109,8 @@ def classify(d, rc):
         return "estimator_diverged"
     if not d["jumped"]:
         return "aborted: " + (d["abort_reason"] or "run ended")
+    if d.get("landings", 1) < walls and d["abort_reason"] and (clearance is None or clearance > 0):
+        return f"aborted before wall {d.get('landings', 1) + 1}: " + d["abort_reason"]
     if clearance is not None and clearance <= 0.0:
         return "hit_wall"
     if damping or sim.get("body_touched_ground") or "NOT upright" in d["verdict"]:
@@ -135,6 +149,9 @@ for i in range(trials):
            "takeoff_speed_m_s": sim.get("takeoff_speed_m_s"),
            "apex_base_z_m": sim.get("apex_base_z_m"),
            "estimator_position_rms_m": sim.get("estimator_position_rms_m"),
+           "estimator_position_max_m": sim.get("estimator_position_max_m"),
+           "jump_clearances_m": sim.get("jump_wall_clearance_m"),
+           "landings": (d or {}).get("landings"),
            "plan": (d or {}).get("plan", {}).get("source"),
            "plan_summary": (d or {}).get("plan", {}).get("summary"),
            "verdict": (d or {}).get("verdict", open(f"{work}/trial_{seed}.log").read()[-300:])}
@@ -152,7 +169,8 @@ print(json.dumps({
                "link_mass_scale": [0.95, 1.05], "friction": [0.5, 1.0],
                "torque_scale": [0.9, 1.0], "corner_speed_scale": [0.9, 1.1],
                "motor_latency_s": [0, 0.002], "imu_gyro_bias_rad_s": "|b| <= 0.02",
-               "wall_position_error_m": [-0.1, 0.1]},
+               "wall_position_error_m": [-0.1, 0.1],
+               "wall_error_seen_by_range_sensor": wall_error == "seen"},
     "successes": ok, "success_rate": ok / trials if trials else 0.0,
     "jumped": len(jumped),
     "failure_taxonomy": taxonomy,
@@ -160,5 +178,6 @@ print(json.dumps({
     "clearance_m": stats(r["clearance_m"] for r in jumped),  # trials that jumped
     "roll_on_speed_m_s": stats(r["roll_on_speed_m_s"] for r in rows),
     "estimator_position_rms_m": stats(r["estimator_position_rms_m"] for r in rows),
+    "estimator_position_max_m": stats(r["estimator_position_max_m"] for r in rows),
     "failures": failures, "trials_detail": rows}, indent=1))
 PY

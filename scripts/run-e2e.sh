@@ -3,8 +3,9 @@
 # service on loopback, then runs the robot client on the simulated robot for the forward
 # scenario (roll up to 3 m/s, plan, jump over a 0.25 m wall, land, stop; every command and
 # measurement through emulated MIT-mode CAN frames), the vertical scenario (crouched, as high as
-# the planner reaches) and the platform scenario (roll up to 3 m/s, jump onto a 0.25 m platform,
-# land on its top). Summaries on
+# the planner reaches), the platform scenario (roll up to 3 m/s, jump onto a 0.25 m platform,
+# land on its top) and the course (two 0.25 m walls 10 m apart, jumped one after the other
+# without stopping, then a stop). Summaries on
 # stdout, telemetry and figures in out/. Usage: scripts/run-e2e.sh [build dir] [seed]
 set -euo pipefail
 # DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
@@ -37,6 +38,7 @@ run() {
 run forward --via-can
 run vertical
 run platform
+run course
 echo "telemetry and figures in out/ (e2e_*.csv, e2e_*.png); service log out/planner_server.log"
 echo "pictures of the runs: out/e2e_<scenario>_snapshots.png (snapshot strip), out/e2e_<scenario>.gif"
 echo "  (animation), out/e2e_<scenario>.html (3D replay: open it in a browser, works offline)"

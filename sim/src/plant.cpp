@@ -54,7 +54,7 @@ bool PlantSettings::nominal() const {
   return payload.mass_kg == 0.0 && link_mass_scale == 1.0 && friction == PlantSettings{}.friction &&
          torque_scale == 1.0 && corner_speed_scale == 1.0 && motor_latency_s == 0.0 &&
          imu_gyro_bias_rad_s.isZero(0.0) && imu_accel_bias_m_s2.isZero(0.0) &&
-         wall_position_error_m == 0.0 && ground_height_m == 0.0;
+         wall_position_error_m == 0.0 && range_bias_m == 0.0 && ground_height_m == 0.0;
 }
 
 void PlantSettings::validate() const {
@@ -68,6 +68,7 @@ void PlantSettings::validate() const {
   inRange(imu_gyro_bias_rad_s, -0.5, 0.5, "imu_gyro_bias_rad_s");
   inRange(imu_accel_bias_m_s2, -2.0, 2.0, "imu_accel_bias_m_s2");
   inRange(wall_position_error_m, -1.0, 1.0, "wall_position_error_m");
+  inRange(range_bias_m, -1.0, 1.0, "range_bias_m");
   inRange(ground_height_m, -0.2, 0.2, "ground_height_m");
 }
 
@@ -95,6 +96,7 @@ PlantSettings parsePlantSettings(std::string_view yaml_text, const std::string& 
   optional(root, "imu_gyro_bias_rad_s", p.imu_gyro_bias_rad_s);
   optional(root, "imu_accel_bias_m_s2", p.imu_accel_bias_m_s2);
   optional(root, "wall_position_error_m", p.wall_position_error_m);
+  optional(root, "range_bias_m", p.range_bias_m);
   optional(root, "ground_height_m", p.ground_height_m);
   root.finish();
   p.validate();
@@ -122,6 +124,7 @@ std::string toYaml(const PlantSettings& p) {
     << "imu_gyro_bias_rad_s: " << vec(p.imu_gyro_bias_rad_s) << "\n"
     << "imu_accel_bias_m_s2: " << vec(p.imu_accel_bias_m_s2) << "\n"
     << "wall_position_error_m: " << p.wall_position_error_m << "\n"
+    << "range_bias_m: " << p.range_bias_m << "\n"
     << "ground_height_m: " << p.ground_height_m << "\n";
   return s.str();
 }

@@ -43,6 +43,7 @@ TEST(Plant, YamlRoundTripKeepsEveryValue) {
   p.imu_gyro_bias_rad_s = {0.01, -0.02, 0.003};
   p.imu_accel_bias_m_s2 = {0.1, 0.0, -0.2};
   p.wall_position_error_m = -0.07;
+  p.range_bias_m = 0.07;
   p.ground_height_m = 0.02;
   const PlantSettings q = parsePlantSettings(toYaml(p));
   EXPECT_EQ(q.payload.mass_kg, p.payload.mass_kg);
@@ -55,6 +56,7 @@ TEST(Plant, YamlRoundTripKeepsEveryValue) {
   EXPECT_EQ(q.imu_gyro_bias_rad_s, p.imu_gyro_bias_rad_s);
   EXPECT_EQ(q.imu_accel_bias_m_s2, p.imu_accel_bias_m_s2);
   EXPECT_EQ(q.wall_position_error_m, p.wall_position_error_m);
+  EXPECT_EQ(q.range_bias_m, p.range_bias_m);
   EXPECT_EQ(q.ground_height_m, p.ground_height_m);
 }
 
@@ -78,6 +80,8 @@ TEST(Plant, BadValuesAreRefusedWithTheKeyAndItsRange) {
   EXPECT_NE(message("payload: {mass: 1}").find("unknown key 'payload.mass'"), std::string::npos);
   EXPECT_NE(message("imu_gyro_bias_rad_s: [0, 0]").find("needs 3 numbers"), std::string::npos);
   EXPECT_NE(message("torque_scale: fast").find("wrong type"), std::string::npos);
+  EXPECT_NE(message("range_bias_m: 1.5").find("range_bias_m must be in [-1, 1]"),
+            std::string::npos);
 }
 
 TEST(Plant, PayloadAndLinkMassesMoveTheMassAndCentreOfMassAsTheirSum) {

@@ -4,6 +4,7 @@
 #include <random>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 #include "can/can_bus.h"
 #include "can/can_robot.h"
@@ -23,35 +24,52 @@ sim::SimSettings simSettings(const ScenarioSettings& scenario, std::uint64_t see
   sim::SimSettings s;
   s.noise.enabled = noise;
   s.noise.seed = seed;
-  // A wall to clear, or a platform to land and drive on (terrain, not an obstacle).
+  // Walls to clear (one, or a course of several), or a platform to land and drive on
+  // (terrain, not an obstacle).
   const auto box = scenario.landsOnWall() ? sim::Terrain::platform : sim::Terrain::wall;
-  s.terrain = scenario.has_wall
-                  ? box(scenario.wall_x_m, scenario.wall_x_m + scenario.wall_thickness_m,
-                        scenario.wall_height_m)
-                  : sim::Terrain::flat();
+  s.terrain = sim::Terrain::flat();
+  if (scenario.has_wall)
+    for (const double x : scenario.wall_x_m) {
+      const sim::Terrain one = box(x, x + scenario.wall_thickness_m, scenario.wall_height_m);
+      s.terrain.boxes.insert(s.terrain.boxes.end(), one.boxes.begin(), one.boxes.end());
+    }
   return s;
 }
 
 // A forward range sensor on the simulated robot: the true distance from the base origin to the
-// wall's near face plus seeded Gaussian noise, in range between 0.05 m and 6 m.
+// near face of the first obstacle ahead (the simulated terrain's, where the plant put it), plus
+// the plant's range bias and seeded Gaussian noise; in range between 0.05 m and 6 m.
 class SimRangeSensor final : public RangeSensor {
  public:
   static constexpr double kNoiseStd = 0.01;  // [m], a depth camera at a few metres
   static constexpr double kMaxRange = 6.0;   // [m]
 
-  SimRangeSensor(const sim::SimRobot& sim, double wall_x_m, std::uint64_t seed)
-      : sim_(sim), wall_x_(wall_x_m), rng_(seed ^ 0x5EEDu), noise_(0.0, kNoiseStd) {}
+  // `near_faces_m`: the real near faces, increasing.
+  SimRangeSensor(const sim::SimRobot& sim, const std::vector<double>& near_faces_m, double bias_m,
+                 std::uint64_t seed)
+      : sim_(sim),
+        near_faces_(near_faces_m),
+        bias_(bias_m),
+        rng_(seed ^ 0x5EEDu),
+        noise_(0.0, kNoiseStd) {}
   bool read(double& distance_m) override {
     sim_.calcGroundTruth(gt_, false);
-    const double d = wall_x_ - gt_.X_WB.translation().x();
-    if (d < 0.05 || d > kMaxRange) return false;
-    distance_m = d + noise_(rng_);
-    return true;
+    const double x = gt_.X_WB.translation().x();
+    for (const double face : near_faces_) {
+      const double d = face - x;
+      if (d < 0.05) continue;
+      if (d > kMaxRange) return false;
+      distance_m = d + bias_ + noise_(rng_);
+      return true;
+    }
+    return false;
   }
+  double noiseStd() const override { return kNoiseStd; }
 
  private:
   const sim::SimRobot& sim_;
-  double wall_x_;
+  std::vector<double> near_faces_;
+  double bias_;
   std::mt19937_64 rng_;
   std::normal_distribution<double> noise_;
   sim::GroundTruth gt_;
@@ -78,7 +96,14 @@ class SimBackend final : public Backend, public FaultSource {
       via_can_->reset(placement_);
     else
       direct_->reset(placement_);
-    if (scenario.has_wall) range_.emplace(sim(), scenario.wall_x_m, seed);
+    if (scenario.has_wall) {
+      // Where the walls really are: applyPlant() moves obstacles by the wall error (a
+      // platform is terrain and stays).
+      std::vector<double> faces = scenario.wall_x_m;
+      if (!scenario.landsOnWall())
+        for (double& x : faces) x += plant.wall_position_error_m;
+      range_.emplace(sim(), faces, plant.range_bias_m, seed);
+    }
   }
   RangeSensor* rangeSensor() override { return range_ ? &*range_ : nullptr; }
   model::RobotInterface& robot() override {

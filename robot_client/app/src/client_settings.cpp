@@ -30,10 +30,26 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.stand_s, 0.0, 60.0, p + "stand_s");
   inRange(s.run_up_speed_m_s, 0.0, 5.0, p + "run_up_speed_m_s");
   inRange(s.acceleration_m_s2, 0.1, 5.0, p + "acceleration_m_s2");
-  inRange(s.wall_x_m, 0.5, 100.0, p + "wall.x_m");
+  if (s.wall_x_m.empty())
+    throw std::invalid_argument("robot client settings: " + p +
+                                "wall.x_m must name at least one wall (a number or a list)");
+  for (std::size_t i = 0; i < s.wall_x_m.size(); ++i) {
+    const std::string key =
+        p + "wall.x_m" + (s.wall_x_m.size() > 1 ? "[" + std::to_string(i) + "]" : "");
+    inRange(s.wall_x_m[i], 0.5, 1000.0, key);
+    // The next wall's run-up starts where the previous jump's landing and roll-on end.
+    if (i > 0)
+      inRange(s.wall_x_m[i], s.wall_x_m[i - 1] + s.wall_thickness_m + 2.0, 1000.0,
+              key + " (beyond the previous wall's far face + 2 m)");
+  }
+  if (s.wall_x_m.size() > 1 && (s.landsOnWall() || s.after_landing != AfterLanding::RollOn))
+    throw std::invalid_argument("robot client settings: " + p +
+                                "wall.x_m lists several walls: a course needs after_landing.mode "
+                                "roll_on and jumps over walls (not onto a platform)");
   inRange(s.wall_thickness_m, 0.01, 20.0, p + "wall.thickness_m");
   inRange(s.wall_height_m, 0.01, 1.0, p + "wall.height_m");
   inRange(s.takeoff_to_wall_m, 0.3, 3.0, p + "takeoff_to_wall_m");
+  inRange(s.takeoff_lead_m, -0.2, 0.2, p + "takeoff_lead_m");
   inRange(s.nmpc_base_height_m, 0.2, 0.45, p + "nmpc_base_height_m");
   inRange(s.decision_margin_m, 0.0, 10.0, p + "decision_margin_m");
   inRange(s.target_dx_m, -3.0, 5.0, p + "target.dx_m");
@@ -54,11 +70,11 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   if (s.has_wall && s.run_up_speed_m_s > 0.0) {
     // The run-up must fit before the decision point.
     const double run_up = s.run_up_speed_m_s * s.run_up_speed_m_s / (2.0 * s.acceleration_m_s2);
-    const double room = s.wall_x_m - s.takeoff_to_wall_m - s.decision_margin_m;
+    const double room = s.wallX(0) - s.takeoff_to_wall_m - s.decision_margin_m;
     require(room > run_up, p + "wall.x_m",
             "beyond the run-up distance + takeoff_to_wall_m + decision_margin_m (" +
                 std::to_string(run_up + s.takeoff_to_wall_m + s.decision_margin_m) + " m)",
-            s.wall_x_m);
+            s.wallX(0));
   }
 }
 
@@ -71,11 +87,21 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   s.speed_tolerance_m_s = m.number("speed_tolerance_m_s");
   StrictYamlMap wall = m.map("wall");
   s.has_wall = wall.flag("enabled");
-  s.wall_x_m = wall.number("x_m");
+  if (const YAML::Node x = wall.node("x_m"); x.IsSequence()) {
+    s.wall_x_m.clear();
+    try {
+      for (const YAML::Node& v : x) s.wall_x_m.push_back(v.as<double>());
+    } catch (const YAML::Exception&) {
+      wall.fail("key '" + name + ".wall.x_m' has the wrong type (a number or a list of numbers)");
+    }
+  } else {
+    s.wall_x_m = {wall.number("x_m")};
+  }
   s.wall_thickness_m = wall.number("thickness_m");
   s.wall_height_m = wall.number("height_m");
   wall.finish();
   s.takeoff_to_wall_m = m.number("takeoff_to_wall_m");
+  if (m.has("takeoff_lead_m")) s.takeoff_lead_m = m.number("takeoff_lead_m");
   s.nmpc_base_height_m = m.number("nmpc_base_height_m");
   s.decision_margin_m = m.number("decision_margin_m");
   StrictYamlMap target = m.map("target");

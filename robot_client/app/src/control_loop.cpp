@@ -12,6 +12,8 @@ namespace wj::robot_client {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// A range reading implying a base x this far from the estimate belongs to another object [m].
+constexpr double kRangeGate_m = 1.0;
 
 }  // namespace
 
@@ -77,7 +79,7 @@ void ControlLoop::setSpeedCommand(double v_target, double accel) {
 
 double ControlLoop::groundHeightAt(double x) const {
   if (!scenario_.landsOnWall()) return estimator_.groundHeight();
-  const double near = wall_readings_ > 0 ? wall_x_est_ : scenario_.wall_x_m;
+  const double near = wall_readings_ > 0 ? wall_x_est_ : scenario_.wallX(0);
   return x >= near && x <= near + scenario_.wall_thickness_m ? scenario_.wall_height_m : 0.0;
 }
 
@@ -117,6 +119,30 @@ void ControlLoop::updateContacts() {
   wheels_over_platform_ = scenario_.landsOnWall() && over_platform;
 }
 
+void ControlLoop::senseRange() {
+  // A course: the readings belong to the wall being approached only.
+  if (fsm_.wallIndex() != wall_index_) {
+    wall_index_ = fsm_.wallIndex();
+    wall_readings_ = 0;
+  }
+  double range_m = 0.0;
+  if (range_ == nullptr || !scenario_.has_wall || wall_index_ >= scenario_.jumps() ||
+      !range_->read(range_m))
+    return;
+  // The configured wall minus the range is a fix of the base's x: odometry drifts (about 1 %
+  // of the distance, docs/robot-client.md, "Estimator over a long run"), the range does not.
+  // A reading more than a metre off is not this wall's.
+  const double x_fix = scenario_.wallX(wall_index_) - range_m;
+  if (std::abs(x_fix - estimator_.state().p_WB.x()) < kRangeGate_m)
+    estimator_.correctPositionX(x_fix, range_->noiseStd());
+  // The wall as the range sensor sees it, averaged in the estimator's frame: the take-off
+  // point follows the wall, whatever is left of the odometry's drift.
+  const double wall = estimator_.state().p_WB.x() + range_m;
+  ++wall_readings_;
+  wall_x_est_ += (wall - wall_x_est_) / std::min(wall_readings_, 200);
+  fsm_.setWallX(wall_x_est_);
+}
+
 void ControlLoop::estimate() {
   // Planned contacts while the NMPC drives (all four wheels roll); detected ones in a jump.
   const Mode m = fsm_.mode();
@@ -128,6 +154,7 @@ void ControlLoop::estimate() {
   for (int leg = 0; leg < model::kNumLegs; ++leg)
     contact[leg] = !jumping || contact_periods_[leg] >= settle_periods_;
   estimator_.update(sensors_, contact, backend_.controlPeriod());
+  if (!jumping) senseRange();
   const estimation::EstimatedState& s = estimator_.state();
   Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
   X_WB.linear() = s.q_WB.toRotationMatrix();
@@ -203,7 +230,13 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
   }
   if (m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing) {
     sim::PlanExecutor* ex = executor();
-    bool any_contact = false;
+    // Until the plan's lift-off the wheels stand by the plan: the take-off's first tens of
+    // milliseconds unload the legs (the base sinks into the push), the torque-based force of
+    // every wheel can drop under the threshold for longer than the executor's airborne
+    // debounce, and the executor then took the first contact after its flight switch for a
+    // touchdown and extended the legs for the landing right after lift-off (course, second
+    // wall: the front wheels hit its edge).
+    bool any_contact = ex != nullptr && ex->phase() == sim::JumpPhase::Takeoff;
     for (bool c : contact_) any_contact = any_contact || c;
     if (ex != nullptr) ex->update(t_ - takeoff_t_, sensors_, any_contact, commands_);
     return;
@@ -252,18 +285,6 @@ void ControlLoop::step() {
   t_ = sensors_.t;
   updateContacts();
   estimate();
-
-  // The wall as the range sensor sees it, averaged in the estimator's frame: the take-off
-  // point then follows the wall, not the odometry's drift.
-  double range_m = 0.0;
-  const Mode m_now = fsm_.mode();
-  if (range_ != nullptr && (m_now == Mode::Stand || m_now == Mode::Roll || m_now == Mode::Plan) &&
-      range_->read(range_m)) {
-    const double wall = estimator_.state().p_WB.x() + range_m;
-    ++wall_readings_;
-    wall_x_est_ += (wall - wall_x_est_) / std::min(wall_readings_, 200);
-    fsm_.setWallX(wall_x_est_);
-  }
 
   FsmInput in;
   in.t = t_;

@@ -44,6 +44,8 @@ std::string_view toString(Reason reason) {
       return "landing over";
     case Reason::RollOn:
       return "landing over, rolling on";
+    case Reason::NextWall:
+      return "landing over, rolling on to the next wall";
     case Reason::RolledOn:
       return "rolled on";
     case Reason::NoPlanByDecisionPoint:
@@ -70,7 +72,9 @@ std::string_view toString(Reason reason) {
 
 JumpStateMachine::JumpStateMachine(const ScenarioSettings& scenario, const SafetySettings& safety)
     : scenario_(scenario), safety_(safety) {
-  takeoff_com_x_ = scenario_.has_wall ? scenario_.wall_x_m - scenario_.takeoff_to_wall_m : 0.0;
+  takeoff_com_x_ = scenario_.has_wall
+                       ? scenario_.wallX(0) - scenario_.takeoff_to_wall_m - scenario_.takeoff_lead_m
+                       : 0.0;
 }
 
 void JumpStateMachine::enter(Mode to, Reason why, const FsmInput& in) {
@@ -83,7 +87,7 @@ void JumpStateMachine::enter(Mode to, Reason why, const FsmInput& in) {
 
 FsmOutput JumpStateMachine::step(const FsmInput& in) {
   FsmOutput out;
-  const bool jumping = mode_ == Mode::Takeoff || mode_ == Mode::Flight || mode_ == Mode::Landing;
+  const bool jumping = inJump();
   if (mode_ != Mode::Damping) {
     Reason fault = Reason::Start;
     if (in.motor_fault)
@@ -116,20 +120,21 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
           enter(Mode::Plan, Reason::PlanRequested, in);
         } else {
           out.start_roll = true;
+          ramp_end_t_ = in.t + scenario_.run_up_speed_m_s / scenario_.acceleration_m_s2;
           enter(Mode::Roll, Reason::Start, in);
         }
       }
       break;
     case Mode::Roll:
-      if (jumped_) {
-        // Rolling on after the landing, then a stop.
+      if (!armed()) {
+        // Rolling on after the last landing, then a stop.
         if (in.t >= mode_since_ + scenario_.roll_on_s) {
           out.brake = true;
           enter(Mode::Brake, Reason::RolledOn, in);
         }
       } else if (scenario_.has_wall && in.com_x >= decisionComX()) {
         abort(Reason::NoPlanByDecisionPoint);
-      } else if (in.t >= mode_since_ + scenario_.run_up_speed_m_s / scenario_.acceleration_m_s2 &&
+      } else if (in.t >= ramp_end_t_ &&
                  std::abs(in.speed - scenario_.run_up_speed_m_s) < scenario_.speed_tolerance_m_s) {
         if (!scenario_.has_wall) takeoff_com_x_ = in.com_x;
         out.request_plan = true;
@@ -161,7 +166,19 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
       break;
     case Mode::Landing:
       if (in.executor_finished) {
-        if (scenario_.after_landing == AfterLanding::RollOn) {
+        ++landings_;
+        ++wall_index_;
+        if (armed()) {
+          // A course: the next wall's run-up starts from the landing's hand-over speed (the
+          // roll-on speed) and ramps for what remains to the run-up speed.
+          out.start_roll = true;
+          rolled_on_ = true;
+          takeoff_com_x_ =
+              scenario_.wallX(wall_index_) - scenario_.takeoff_to_wall_m - scenario_.takeoff_lead_m;
+          ramp_end_t_ =
+              in.t + std::abs(scenario_.run_up_speed_m_s - in.speed) / scenario_.acceleration_m_s2;
+          enter(Mode::Roll, Reason::NextWall, in);
+        } else if (scenario_.after_landing == AfterLanding::RollOn) {
           out.roll_on = true;
           rolled_on_ = true;
           enter(Mode::Roll, Reason::RollOn, in);

@@ -126,6 +126,12 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
     truth_.touchdown_dx = gt.p_WC.x() - truth_.takeoff_com_x;
   if (m == Mode::Roll && loop.stateMachine().rolledOn()) truth_.roll_on_speed = gt.v_WB.x();
   truth_.min_clearance = std::min(truth_.min_clearance, gt.obstacle_clearance_m);
+  if (m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing) {
+    const auto jump = static_cast<std::size_t>(loop.stateMachine().landings());
+    if (truth_.jump_clearance.size() <= jump)
+      truth_.jump_clearance.resize(jump + 1, std::numeric_limits<double>::infinity());
+    truth_.jump_clearance[jump] = std::min(truth_.jump_clearance[jump], gt.obstacle_clearance_m);
+  }
   if (keep_frames_ && (frames_.empty() || t_read > frames_.back().t)) {
     viz::Frame f;
     f.t = t_read;
@@ -156,6 +162,7 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
   // observable).
   const estimation::EstimatedState& e = loop.estimate();
   pos_err2_ += (e.p_WB - p).squaredNorm();
+  truth_.est_pos_max = std::max(truth_.est_pos_max, (e.p_WB - p).norm());
   vel_err2_ += (e.v_WB - gt.v_WB).squaredNorm();
   ++err_n_;
 }
@@ -168,6 +175,7 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
   s.can_report = backend.canReport();
   const JumpStateMachine& fsm = loop.stateMachine();
   s.jumped = fsm.jumped();
+  s.landings = fsm.landings();
   s.abort_reason =
       fsm.abortReason() == Reason::Start ? "" : std::string(toString(fsm.abortReason()));
   s.final_mode = std::string(toString(loop.mode()));
@@ -213,7 +221,7 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
     v << "no jump: " << (s.abort_reason.empty() ? "run ended" : s.abort_reason);
     if (truth_.available && scenario_.has_wall) {
       const bool before =
-          truth_.final_front_wheel_x < scenario_.wall_x_m && truth_.min_clearance > 0.0;
+          truth_.final_front_wheel_x < scenario_.wallX(0) && truth_.min_clearance > 0.0;
       v << (before ? "; stopped before the wall" : "; DID NOT STOP before the wall");
     }
   } else {
@@ -221,12 +229,17 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
     const bool stopped = loop.mode() == Mode::Stand;
     // Onto a platform: the base ends over it, at least its height above the ground.
     const bool platform = scenario_.landsOnWall();
-    const bool on_top = platform && truth_.final_x > scenario_.wall_x_m &&
-                        truth_.final_x < scenario_.wall_x_m + scenario_.wall_thickness_m &&
+    const bool on_top = platform && truth_.final_x > scenario_.wallX(0) &&
+                        truth_.final_x < scenario_.wallX(0) + scenario_.wall_thickness_m &&
                         truth_.final_height > scenario_.wall_height_m + 0.1;
+    // Every wall jumped (a course: one after the other, without stopping between them).
+    const int walls = scenario_.jumps();
+    const bool all_jumped = fsm.landings() == walls;
+    const double last_wall = scenario_.has_wall ? scenario_.wall_x_m.back() : 0.0;
     const bool cleared =
         !scenario_.has_wall ||
-        (platform ? on_top : truth_.min_clearance > 0.0 && truth_.final_x > scenario_.wall_x_m);
+        (platform ? on_top
+                  : all_jumped && truth_.min_clearance > 0.0 && truth_.final_x > last_wall);
     // Rolled on at the commanded speed after the landing (within 5 %), when asked to.
     const bool roll_on = scenario_.after_landing == AfterLanding::RollOn;
     const bool rolled_on =
@@ -238,7 +251,10 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
       v << (stopped ? "jumped and stopped" : "jumped, not stopped");
     } else {
       s.success = upright && stopped && cleared && rolled_on && !truth_.body_hit_ground;
-      v << (platform ? (cleared ? "landed on the platform" : "DID NOT LAND on the platform")
+      v << (platform    ? (cleared ? "landed on the platform" : "DID NOT LAND on the platform")
+            : walls > 1 ? (cleared ? "cleared all " + std::to_string(walls) + " walls"
+                                   : "DID NOT CLEAR all " + std::to_string(walls) + " walls (" +
+                                         std::to_string(fsm.landings()) + " jumped)")
             : scenario_.has_wall ? (cleared ? "cleared the wall" : "DID NOT CLEAR the wall")
                                  : "jumped")
         << (upright ? ", landed upright" : ", NOT upright")
@@ -258,6 +274,7 @@ nlohmann::json RunSummary::toJson() const {
   j["success"] = success;
   j["verdict"] = verdict;
   j["jumped"] = jumped;
+  j["landings"] = landings;
   j["abort_reason"] = abort_reason;
   j["final_mode"] = final_mode;
   j["takeoff_speed_estimated_m_s"] = num(takeoff_speed_est);
@@ -288,6 +305,8 @@ nlohmann::json RunSummary::toJson() const {
                       {"final_roll_rad", truth.final_roll},
                       {"final_speed_m_s", truth.final_speed},
                       {"estimator_position_rms_m", truth.est_pos_rms},
+                      {"estimator_position_max_m", truth.est_pos_max},
+                      {"jump_wall_clearance_m", truth.jump_clearance},
                       {"estimator_velocity_rms_m_s", truth.est_vel_rms}};
   nlohmann::json torques = nlohmann::json::object();
   for (int k = 0; k < model::kJointsPerLeg; ++k)
@@ -360,9 +379,10 @@ viz::Recording RunRecorder::recording(const ControlLoop& loop,
   rec.source = truth_.available ? "simulated" : "estimated";
   rec.frames = frames_;
   if (scenario_.has_wall)
-    rec.boxes.push_back({Eigen::Vector3d(scenario_.wall_x_m, -1.0, 0.0),
-                         Eigen::Vector3d(scenario_.wall_x_m + scenario_.wall_thickness_m, 1.0,
-                                         scenario_.wall_height_m)});
+    for (const double x : scenario_.wall_x_m)
+      rec.boxes.push_back(
+          {Eigen::Vector3d(x, -1.0, 0.0),
+           Eigen::Vector3d(x + scenario_.wall_thickness_m, 1.0, scenario_.wall_height_m)});
   const double takeoff = loop.takeoffTime();
   if (std::isfinite(takeoff)) {
     rec.jump_start_t = takeoff;

@@ -152,6 +152,24 @@ void StateEstimator::correctHeight(double z_meas) {
   P_ = IKH * P_ * IKH.transpose() + r * K * K.transpose();
 }
 
+double StateEstimator::correctPositionX(double x_meas, double std_m) {
+  if (diverged() || !std::isfinite(x_meas) || !(std_m > 0.0)) return 0.0;
+  // z = p_x + noise: H = e_1.
+  const double r = std_m * std_m;
+  const double innovation = x_meas - x_(0);
+  const double S = P_(0, 0) + r;
+  const Vector6 K = P_.col(0) / S;
+  x_ += K * innovation;
+  Matrix6 IKH = Matrix6::Identity();
+  IKH.col(0) -= K;
+  P_ = IKH * P_ * IKH.transpose() + r * K * K.transpose();
+  checkHealth();
+  state_.p_WB = x_.head<3>();
+  state_.v_WB = x_.tail<3>();
+  state_.covariance_diagonal = P_.diagonal();
+  return innovation;
+}
+
 void StateEstimator::checkHealth() {
   if (!x_.allFinite() || !P_.allFinite()) {
     divergence_ = Divergence::NonFiniteState;

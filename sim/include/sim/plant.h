@@ -34,9 +34,12 @@ struct PlantSettings {
   double motor_latency_s = 0.0;     ///< command written -> torque applied [0, 0.05] s
   Eigen::Vector3d imu_gyro_bias_rad_s = Eigen::Vector3d::Zero();  ///< [-0.5, 0.5] per axis
   Eigen::Vector3d imu_accel_bias_m_s2 = Eigen::Vector3d::Zero();  ///< [-2, 2] per axis
-  /// Where the obstacles really are along x against where the configuration and the range
-  /// sensor say [-1, 1] m (positive: farther).
+  /// Where the obstacles really are along x against where the configuration says [-1, 1] m
+  /// (positive: farther). The range sensor measures the real obstacles.
   double wall_position_error_m = 0.0;
+  /// Constant error of every range reading (the forward range sensor's bias) [-1, 1] m. A wall
+  /// error the sensor does not see: range_bias_m = -wall_position_error_m.
+  double range_bias_m = 0.0;
   /// Height of the ground the robot starts on and takes off from above the ground beyond the
   /// obstacles (the landing side), [-0.2, 0.2] m; without obstacles the whole ground.
   double ground_height_m = 0.0;

@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # End-to-end tests of robot_client against a real planner_server on loopback (ctest "app.e2e.*").
-#   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort|platform
+#   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort|platform|course
 # forward: run-up, plan, jump over the 0.25 m wall through emulated CAN frames, land, roll on
 # at the run-up speed, stop.
 # vertical: the standing jump from the crouch, as high as the planner reaches (>= 0.58 m base
 # apex). platform: run-up, jump onto the 0.25 m platform, land on its top, roll on, stop there.
+# course: two 0.25 m walls 10 m apart (at 14 and 24 m, as shipped), both jumped without a stop
+# between them, then a stop.
 # abort: the service is unreachable; the robot must not jump and
 # must stop before the wall. The test configuration gives the planner a longer deadline and the
 # wall more run-up room than the shipped one, because CI machines are slower and shared.
@@ -79,6 +81,16 @@ else:
         check(("LANDING", "ROLL") in modes, f"did not roll on after the landing: {modes}")
         check(abs(sim["roll_on_speed_m_s"] - 1.0) < 0.07,
               f"rolled on at {sim['roll_on_speed_m_s']} m/s, not 1 m/s")
+        check(d["final_mode"] == "STAND", d["final_mode"])
+    if case == "course":
+        check(d["landings"] == 2, f"{d['landings']} of 2 walls jumped")
+        check(all(c > 0.0 for c in sim["jump_wall_clearance_m"]),
+              f"hit a wall: {sim['jump_wall_clearance_m']}")
+        # No brake before the second touchdown: the robot did not stop between the walls.
+        modes = [(t["from"], t["to"]) for t in d["transitions"]]
+        touchdowns = [i for i, m in enumerate(modes) if m[1] == "LANDING"]
+        check(len(touchdowns) == 2 and "BRAKE" not in [m[1] for m in modes[:touchdowns[1]]],
+              f"stopped between the walls: {modes}")
         check(d["final_mode"] == "STAND", d["final_mode"])
     if case == "forward":
         check(sim["min_wall_clearance_m"] > 0.0, "hit the wall")

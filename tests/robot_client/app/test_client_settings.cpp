@@ -140,6 +140,35 @@ TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {
   EXPECT_THROW((void)parseClientSettings(text, "x.yaml"), std::invalid_argument);
 }
 
+TEST(ClientSettings, ACourseListsItsWallsInOrder) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  const ScenarioSettings& course = s.scenario("course");
+  ASSERT_EQ(course.wall_x_m.size(), 2u);
+  EXPECT_DOUBLE_EQ(course.wallX(0), 14.0);
+  EXPECT_DOUBLE_EQ(course.wallX(1), 24.0);
+  EXPECT_EQ(course.jumps(), 2);
+  EXPECT_EQ(s.scenario("forward").jumps(), 1);
+  EXPECT_EQ(s.scenario("vertical").jumps(), 1);
+  const auto message = [](const std::string& text) -> std::string {
+    try {
+      (void)parseClientSettings(text, "x.yaml");
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  // Out of order (or too close to the previous wall's far face).
+  EXPECT_NE(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, 15.0]"))
+                .find("scenarios.course.wall.x_m[1]"),
+            std::string::npos);
+  EXPECT_NE(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: []"))
+                .find("scenarios.course.wall.x_m must name at least one wall"),
+            std::string::npos);
+  EXPECT_NE(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, far]"))
+                .find("course.wall.x_m' has the wrong type"),
+            std::string::npos);
+}
+
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
   const std::string on = replace(shippedConfig(), "    enabled: false\n    root_ca_file",
                                  "    enabled: true\n    root_ca_file");

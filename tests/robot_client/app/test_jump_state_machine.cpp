@@ -8,7 +8,7 @@ namespace {
 ScenarioSettings forward() {
   ScenarioSettings s;  // defaults: run-up 3 m/s, wall at 6 m, take-off 1.2 m before it
   s.stand_s = 0.5;
-  s.wall_x_m = 10.0;
+  s.wall_x_m = {10.0};
   return s;
 }
 
@@ -136,6 +136,101 @@ TEST(JumpStateMachine, AfterTheLandingItRollsOnAtTheCommandedSpeedThenStops) {
   EXPECT_EQ(d.fsm.journal(n - 3).to, Mode::Roll);
   EXPECT_EQ(d.fsm.journal(n - 3).reason, Reason::RollOn);
   EXPECT_EQ(d.fsm.journal(n - 2).reason, Reason::RolledOn);
+}
+
+// Flies the jump that the machine is taking off into: flight, landing, landing over.
+FsmOutput flyJump(Drive& d) {
+  d.in.executor_in_flight = true;
+  d.tick();
+  d.in.executor_in_flight = false;
+  d.in.executor_landing = true;
+  d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Landing);
+  d.in.executor_finished = true;
+  const FsmOutput out = d.tick();
+  d.in.executor_landing = false;
+  d.in.executor_finished = false;
+  return out;
+}
+
+TEST(JumpStateMachine, ACourseJumpsEveryWallInTurnWithoutStoppingThenRollsOnAndStops) {
+  ScenarioSettings sc = forward();
+  sc.wall_x_m = {10.0, 20.0};
+  sc.after_landing = AfterLanding::RollOn;
+  sc.roll_on_s = 1.0;
+  Drive d(sc);
+  d.in.speed = 3.0;
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
+  d.in.plan = PlanStatus::Feasible;
+  ASSERT_TRUE(d.until(Mode::Takeoff, 10.0));
+  EXPECT_NEAR(d.in.com_x, 10.0 - 1.2, 0.031);
+  d.in.speed = 2.9;  // the landing hands over a little slow
+  FsmOutput out = flyJump(d);
+  EXPECT_EQ(out.mode, Mode::Roll);
+  EXPECT_TRUE(out.start_roll);  // the run-up speed again, from where the landing left it
+  EXPECT_FALSE(out.brake);
+  EXPECT_EQ(d.fsm.landings(), 1);
+  EXPECT_EQ(d.fsm.wallIndex(), 1);
+  EXPECT_NEAR(d.fsm.takeoffComX(), 20.0 - 1.2, 1e-12);
+  EXPECT_EQ(d.fsm.journal(d.fsm.journalCount() - 1).reason, Reason::NextWall);
+  // The ramp from 2.9 to 3 m/s lasts 0.1 / 1.5 s: no request before it ends, even at speed.
+  d.in.plan = PlanStatus::Feasible;  // the first plan's status is still there
+  d.in.speed = 3.0;
+  const double landed = d.in.t;
+  EXPECT_EQ(d.tick().mode, Mode::Roll);
+  ASSERT_TRUE(d.until(Mode::Plan, landed + 1.0));
+  EXPECT_NEAR(d.in.t, landed + 0.1 / 1.5, 0.011);
+  EXPECT_EQ(d.requests, 2);
+  ASSERT_TRUE(d.until(Mode::Takeoff, landed + 5.0));
+  EXPECT_GE(d.in.com_x, 20.0 - 1.2 - 1e-9);
+  EXPECT_LT(d.in.com_x, 20.0 - 1.2 + 0.031);
+  EXPECT_EQ(d.takeoffs, 2);
+  out = flyJump(d);
+  EXPECT_EQ(out.mode, Mode::Roll);
+  EXPECT_TRUE(out.roll_on);  // the last wall: roll on at the roll-on speed
+  EXPECT_EQ(d.fsm.landings(), 2);
+  const double since = d.in.t;
+  ASSERT_TRUE(d.until(Mode::Brake, since + 1.1));
+  EXPECT_NEAR(d.in.t, since + 1.0, 0.011);
+  EXPECT_EQ(d.brakes, 1);
+  EXPECT_EQ(d.requests, 2);
+  EXPECT_EQ(d.fsm.abortReason(), Reason::Start);
+}
+
+TEST(JumpStateMachine, TheTakeoffLeadMovesTheTakeoffAndDecisionPointsNotTheWall) {
+  ScenarioSettings sc = forward();
+  sc.takeoff_lead_m = 0.05;
+  Drive d(sc);
+  EXPECT_NEAR(d.fsm.takeoffComX(), 10.0 - 1.2 - 0.05, 1e-12);
+  EXPECT_NEAR(d.fsm.decisionComX(), 10.0 - 1.2 - 0.05 - 1.0, 1e-12);
+  d.fsm.setWallX(10.3);  // the range sensor's wall
+  EXPECT_NEAR(d.fsm.takeoffComX(), 10.3 - 1.2 - 0.05, 1e-12);
+  d.in.speed = 3.0;
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
+  d.in.plan = PlanStatus::Feasible;
+  ASSERT_TRUE(d.until(Mode::Takeoff, 10.0));
+  EXPECT_GE(d.in.com_x, 10.3 - 1.25 - 1e-9);
+  EXPECT_LT(d.in.com_x, 10.3 - 1.25 + 0.031);
+}
+
+TEST(JumpStateMachine, ACourseWithoutAPlanForTheNextWallBrakesBeforeIt) {
+  ScenarioSettings sc = forward();
+  sc.wall_x_m = {10.0, 20.0};
+  sc.after_landing = AfterLanding::RollOn;
+  Drive d(sc);
+  d.in.speed = 3.0;
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
+  d.in.plan = PlanStatus::Feasible;
+  ASSERT_TRUE(d.until(Mode::Takeoff, 10.0));
+  flyJump(d);
+  d.in.plan = PlanStatus::Feasible;
+  ASSERT_TRUE(d.until(Mode::Plan, d.in.t + 1.0));
+  d.in.plan = PlanStatus::Pending;  // never answered
+  ASSERT_TRUE(d.until(Mode::Brake, d.in.t + 10.0));
+  EXPECT_NEAR(d.in.com_x, 20.0 - 1.2 - 1.0, 0.031);  // the second wall's decision point
+  EXPECT_EQ(d.fsm.abortReason(), Reason::NoPlanByDecisionPoint);
+  EXPECT_EQ(d.fsm.landings(), 1);
+  EXPECT_EQ(d.takeoffs, 1);
 }
 
 TEST(JumpStateMachine, NoPlanByTheDecisionPointBrakesBeforeTheWall) {

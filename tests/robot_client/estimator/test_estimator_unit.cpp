@@ -208,6 +208,31 @@ TEST(StateEstimator, FlightIntegratesTheImuExactly) {
   EXPECT_NEAR(est.state().covariance_diagonal[3], 0.05 * 0.05 + 0.3 * 0.3 * t, 1e-9);
 }
 
+TEST(StateEstimator, APositionFixIsTheKalmanUpdateOfTheCovariance) {
+  EstimatorSettings settings;
+  StateEstimator est(loadRobot(), settings);
+  est.reset(Eigen::Vector3d(1.0, 0.0, 0.3), Eigen::Vector3d(2.0, 0.0, 0.0));
+  // Prior x 1.0 with std p0 and no position-velocity correlation after reset(): the posterior
+  // is the weighted mean, x = 1 + p0^2 / (p0^2 + r^2) (x_meas - 1), and the velocity stays.
+  const double p0 = settings.initial_position_std_m, r = 0.02;
+  const double innovation = est.correctPositionX(1.3, r);
+  EXPECT_DOUBLE_EQ(innovation, 0.3);
+  const double gain = p0 * p0 / (p0 * p0 + r * r);
+  EXPECT_NEAR(est.state().p_WB.x(), 1.0 + gain * 0.3, 1e-12);
+  EXPECT_NEAR(est.state().covariance_diagonal[0], p0 * p0 * r * r / (p0 * p0 + r * r), 1e-15);
+  EXPECT_DOUBLE_EQ(est.state().p_WB.y(), 0.0);
+  EXPECT_DOUBLE_EQ(est.state().v_WB.x(), 2.0);
+  // Without prediction steps, n fixes weigh as one of variance r^2 / n against the prior.
+  for (int i = 1; i < 2000; ++i) est.correctPositionX(1.3, r);
+  const double w = 2000.0 / (r * r), w0 = 1.0 / (p0 * p0);
+  EXPECT_NEAR(est.state().p_WB.x(), 1.0 + 0.3 * w / (w + w0), 1e-9);
+  // Bad input is ignored.
+  EXPECT_EQ(est.correctPositionX(std::nan(""), r), 0.0);
+  EXPECT_EQ(est.correctPositionX(5.0, 0.0), 0.0);
+  EXPECT_NEAR(est.state().p_WB.x(), 1.0 + 0.3 * w / (w + w0), 1e-9);
+  EXPECT_FALSE(est.diverged());
+}
+
 TEST(StateEstimator, DivergesOnNonFiniteInputAndRecoversOnReset) {
   const model::RobotModel m = loadRobot();
   StateEstimator est(m, {});

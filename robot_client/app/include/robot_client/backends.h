@@ -46,9 +46,9 @@ class Backend {
 /// The Simbody robot standing in the NMPC's nominal posture at the origin, on flat ground with
 /// the scenario's wall; sensor noise seeded with `seed`. `via_can`: every command and
 /// measurement crosses the in-process CAN bus as MIT-mode frames to motor emulators. `plant`
-/// perturbs the simulated robot only (sim/plant.h): the controllers, the estimator's start
-/// and the range sensor keep the nominal world (the range sensor measures to where the
-/// configuration puts the wall).
+/// perturbs the simulated robot only (sim/plant.h): the controllers and the estimator's start
+/// keep the nominal world; the range sensor measures the real walls (where the plant's
+/// wall_position_error_m moved them) plus the plant's range_bias_m.
 std::unique_ptr<Backend> makeSimBackend(const model::RobotModel& robot,
                                         const nmpc::LocomotionController& controller,
                                         const ScenarioSettings& scenario, std::uint64_t seed,

@@ -79,7 +79,9 @@ enum class AfterLanding : std::uint8_t {
 std::string_view toString(AfterLanding after);
 
 /// What a scenario does. Forward: roll up to `run_up_speed_m_s`, request a plan, jump over the
-/// wall at `wall_x_m` (world), land and stop. Vertical: stand, request, jump in place.
+/// wall at `wall_x_m` (world), land and stop. Course: several walls (`wall_x_m` a list), each
+/// jumped in turn, rolling on from one landing to the next run-up. Vertical: stand, request,
+/// jump in place.
 struct ScenarioSettings {
   std::string name = "forward";
   double stand_s = 1.0;            ///< standing before anything starts [s]
@@ -88,11 +90,18 @@ struct ScenarioSettings {
   /// The plan is requested once the speed ramp has ended and the speed is this close to the
   /// run-up speed: the plan starts from the measured v0, so it must be the take-off speed.
   double speed_tolerance_m_s = 0.03;
-  bool has_wall = true;            ///< a wall stands in the way
-  double wall_x_m = 6.0;           ///< near face of the wall, world x [m]
+  bool has_wall = true;  ///< a wall stands in the way
+  /// Near faces of the walls in world x, increasing; one jump each, in order [m]. YAML
+  /// `wall.x_m`: a number (one wall) or a list (a course).
+  std::vector<double> wall_x_m = {6.0};
   double wall_thickness_m = 0.1;   ///< [m]
   double wall_height_m = 0.25;     ///< [m]
   double takeoff_to_wall_m = 1.2;  ///< CoM to the wall's near face at the start of take-off
+  /// The take-off starts this much before the point the plan was made for (the plan keeps the
+  /// wall at takeoff_to_wall_m) [m]: trades clearance at the far edge for clearance at the near
+  /// edge where the simulated jump and the plan differ (docs/robust.md, "Take-off lead").
+  /// Optional YAML key, default 0.
+  double takeoff_lead_m = 0.0;
   /// Base height the NMPC holds while standing and rolling [m]: the run-up is done in the
   /// posture the jump starts from (the planner plans from the measured posture).
   double nmpc_base_height_m = 0.36;
@@ -118,6 +127,11 @@ struct ScenarioSettings {
   /// real robot's). The simulated robot and the planning service must use the same one: the
   /// service's `actuators_file` (docs/backflip.md).
   std::string actuators_file = "actuators.yaml";
+
+  /// Jumps the scenario makes: one per wall, one without a wall.
+  int jumps() const { return has_wall ? static_cast<int>(wall_x_m.size()) : 1; }
+  /// The near face of wall `i` (world x) [m].
+  double wallX(int i = 0) const { return wall_x_m[static_cast<std::size_t>(i)]; }
 
   /// The jump lands on top of the "wall" (a platform): a touchdown target whose CoM x lies
   /// over it, as the planner reads the same request (planner::JumpTask::landsOnObstacle()).

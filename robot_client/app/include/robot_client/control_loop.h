@@ -48,6 +48,8 @@ struct FaultSource {
 struct RangeSensor {
   virtual ~RangeSensor() = default;
   virtual bool read(double& distance_m) = 0;
+  /// Standard deviation of one reading [m].
+  virtual double noiseStd() const = 0;
 };
 
 class ControlLoop {
@@ -90,6 +92,8 @@ class ControlLoop {
 
  private:
   void estimate();
+  // Reads the range sensor: a position fix for the estimator and the wall's perceived place.
+  void senseRange();
   void updateContacts();
   void computeCommands(const FsmOutput& out);
   void applySafety();
@@ -111,6 +115,7 @@ class ControlLoop {
   RangeSensor* range_;
   double wall_x_est_ = 0.0;  // perceived near face of the wall, estimator frame [m]
   int wall_readings_ = 0;
+  int wall_index_ = 0;  // the state machine's wall the readings belong to
   // A platform the jump lands on (ScenarioSettings::landsOnWall): the ground height under world
   // x, from the perceived near face (the configured one without range readings) [m].
   double groundHeightAt(double x) const;

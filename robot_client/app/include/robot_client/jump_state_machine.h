@@ -3,6 +3,8 @@
 ///
 ///   STAND -> ROLL -> PLAN -> TAKEOFF -> FLIGHT -> LANDING -> BRAKE -> STAND
 ///                                                           \-> ROLL (roll on) -> BRAKE -> STAND
+///                                                           \-> ROLL (a course: the next wall)
+///                                                                  -> PLAN -> TAKEOFF ...
 ///                      \-> BRAKE (no plan by the decision point, infeasible plan, planner
 ///                                 unreachable) -> STAND
 ///   any state -> DAMPING (estimator divergence, motor fault, watchdog, attitude limit)
@@ -32,6 +34,7 @@ enum class Reason : std::uint8_t {
   TouchedDown,        ///< the executor switched to landing
   Landed,             ///< landing phase over
   RollOn,             ///< landing phase over, rolling on
+  NextWall,           ///< landing phase over, rolling on to the next wall of a course
   RolledOn,           ///< rolled on after the landing for the scenario's time
   NoPlanByDecisionPoint,
   PlanInfeasible,
@@ -96,11 +99,15 @@ class JumpStateMachine {
   Mode mode() const { return mode_; }
   /// Take-off point: CoM x at which the take-off starts (forward scenario) [m].
   double takeoffComX() const { return takeoff_com_x_; }
-  /// The wall's near face as perceived in the estimator's frame (odometry drifts, a range
-  /// measurement does not): moves the take-off and decision points. Ignored once the jump
-  /// has started or without a wall.
+  /// The wall being approached (index into ScenarioSettings::wall_x_m): 0 until the first
+  /// landing, then the next wall of a course; jumps() once every wall has been jumped.
+  int wallIndex() const { return wall_index_; }
+  /// The current wall's near face as perceived in the estimator's frame (odometry drifts, a
+  /// range measurement does not): moves the take-off and decision points. Ignored during a
+  /// jump, after the last one, or without a wall.
   void setWallX(double wall_x_m) {
-    if (scenario_.has_wall && !jumped_) takeoff_com_x_ = wall_x_m - scenario_.takeoff_to_wall_m;
+    if (scenario_.has_wall && !inJump() && wall_index_ < scenario_.jumps())
+      takeoff_com_x_ = wall_x_m - scenario_.takeoff_to_wall_m - scenario_.takeoff_lead_m;
   }
   /// Decision point: the plan must be in hand before the CoM passes it [m].
   double decisionComX() const { return takeoff_com_x_ - scenario_.decision_margin_m; }
@@ -108,6 +115,8 @@ class JumpStateMachine {
   bool rolledOn() const { return rolled_on_; }
   /// Whether the robot jumped (take-off started) during the run.
   bool jumped() const { return jumped_; }
+  /// Jumps whose landing phase is over.
+  int landings() const { return landings_; }
   /// The abort that ended the jump attempt, or Reason::Start if none.
   Reason abortReason() const { return abort_reason_; }
 
@@ -117,12 +126,20 @@ class JumpStateMachine {
 
  private:
   void enter(Mode to, Reason why, const FsmInput& in);
+  bool inJump() const {
+    return mode_ == Mode::Takeoff || mode_ == Mode::Flight || mode_ == Mode::Landing;
+  }
+  // A jump is still to come (the run-up, the plan request and the take-off are armed).
+  bool armed() const { return wall_index_ < scenario_.jumps(); }
 
   ScenarioSettings scenario_;
   SafetySettings safety_;
   Mode mode_ = Mode::Stand;
   double mode_since_ = 0.0;
   double takeoff_com_x_ = 0.0;
+  double ramp_end_t_ = 0.0;  // end of the speed ramp of the current run-up [s]
+  int wall_index_ = 0;
+  int landings_ = 0;
   bool jumped_ = false;
   bool rolled_on_ = false;
   Reason abort_reason_ = Reason::Start;

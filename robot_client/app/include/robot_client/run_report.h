@@ -47,11 +47,16 @@ struct TruthMetrics {
   double final_front_wheel_x = 0.0;  ///< front wheels' foremost x at the end [m]
   double final_pitch = 0.0, final_roll = 0.0, final_speed = 0.0, final_height = 0.0;
   double est_pos_rms = 0.0, est_vel_rms = 0.0;  ///< estimator error vs truth (RMS)
+  double est_pos_max = 0.0;                     ///< largest position error over the run [m]
+  /// Per jump (a course has several): the smallest wall clearance from its take-off to the
+  /// end of its landing [m].
+  std::vector<double> jump_clearance;
 };
 
 struct RunSummary {
   std::string scenario, backend;
   bool jumped = false;
+  int landings = 0;          ///< jumps whose landing phase ended (a course: one per wall)
   std::string abort_reason;  ///< "" if none
   std::string final_mode;
   double takeoff_speed_est = std::numeric_limits<double>::quiet_NaN();

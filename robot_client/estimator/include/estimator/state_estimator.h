@@ -65,6 +65,12 @@ class StateEstimator {
   void update(const model::SensorData& sensors,
               const std::array<bool, model::kNumLegs>& wheel_contact, double dt);
 
+  /// A measurement of the base position along W's x axis, `x_meas` [m] with standard deviation
+  /// `std_m` [m] (e.g. a known wall's x minus the range to it): a Kalman update of the
+  /// position, and through the covariance of the velocity. No gate: the caller associates the
+  /// measurement. Returns the innovation [m]. Allocation-free; ignored once diverged.
+  double correctPositionX(double x_meas, double std_m);
+
   /// Height of the flat ground under the wheels, in W [m] (e.g. the top of a box landed on).
   void setGroundHeight(double z_m) { ground_height_m_ = z_m; }
   double groundHeight() const { return ground_height_m_; }
