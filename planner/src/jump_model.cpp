@@ -36,6 +36,8 @@ detail::PairGeometry pairGeometry(const model::RobotModel& robot, model::Leg leg
                 geo.m_lower;
   const Eigen::Vector2d cs(shank.com.x(), shank.com.z()), cw(wheel_c.x(), wheel_c.z());
   geo.i_thigh = thigh.inertia_com(1, 1);
+  geo.i_wheel =
+      (wheel_j.X_PJ.linear() * wheel.inertia_com * wheel_j.X_PJ.linear().transpose())(1, 1);
   geo.i_lower = shank.inertia_com(1, 1) + shank.mass * (cs - geo.c_lower).squaredNorm() +
                 wheel.mass * (cw - geo.c_lower).squaredNorm();
   geo.haa_lever = g.p_HT.y() + g.wheel_lateral_offset;
@@ -181,6 +183,21 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
 
   setSearchBox(k_);
   const auto& s = k_.settings;
+  if (k_.settings.stance_momentum) {
+    // E(0): the initial state and posture, the same for every candidate.
+    detail::Solved S;
+    const PlanarState& s0 = k_.initial;
+    S.t1 = S.t2 = 1.0;
+    S.X1 = {s0.x};
+    S.Z1 = {s0.z};
+    S.P1 = {s0.pitch};
+    S.VX1 = {s0.vx};
+    S.VZ1 = {s0.vz};
+    S.W1 = {s0.pitch_rate};
+    detail::Sample smp;
+    detail::contactSample(k_, S, 0.0, smp, /*phase2=*/false, k_.c0, /*converge=*/true);
+    k_.e0 = detail::stanceMomentumExcess(k_, smp);
+  }
   k_.per_contact_sample = 2 * 15 + 1 + (k_.task.obstacle ? 1 : 0);
   k_.per_flight_sample = 1 + (k_.task.obstacle ? 1 : 0);
   k_.num_contact_samples =

@@ -395,7 +395,7 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
   // The cost is built up cheapest bound first, and with a finite cut-off the evaluation stops
   // once what is known already exceeds it: every term (penalty, target, energy) is >= 0 and
   // only grows as samples come in. The order changes no value: the same numbers either way.
-  if (!detail::solve(k_, u, S, /*flight=*/false)) {
+  if (!detail::solve(k_, u, S, /*complete=*/false)) {
     ev.valid = false;
     ev.cost = kInvalidCost;
     return;
@@ -439,6 +439,12 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
   // 1. The target's position from the ballistic CoM; 2. the take-off samples.
   if (bounded) target_bound = detail::targetPositionCost(k_, S);
   if (cut()) return;
+  // The pitch with the legs' momentum in stance (the target's position does not depend on it).
+  if (!detail::solveStanceMomentum(k_, S)) {
+    ev = Evaluation{};
+    ev.cost = kInvalidCost;
+    return;
+  }
   // (The converged take-off posture is needed by the flight, and by the FromTakeoff chain.)
   const bool posture_first = k_.settings.contact_chain == ContactChain::FromTakeoff;
   if (posture_first) detail::solveTakeoffPosture(k_, S);

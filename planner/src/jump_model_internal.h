@@ -28,6 +28,15 @@ struct Solved {
   Poly X2, Z2, P2, VX2, VZ2, W2;  // phase 2, in tau = t - t1
   Poly fHx2, fHz2;                // hind forces, phase 2
   Poly dH2, ddH2;                 // hind axle offset from the CoM and its rate, phase 2
+  Poly Fx1, Fz1, Fx2, Fz2;        // total ground force per phase (x and z axis solves)
+  double pm = 0, pe = 0, we = 0;  // pitch targets: at t1/2, at t2, pitch rate at t2
+  // The legs' and wheels' momentum in stance, E(t) - E(0): phase 1 in t, phase 2 in tau
+  // (solveStanceMomentum; zero until it ran, which `stance_momentum` records).
+  Poly D1, D2;
+  bool stance_momentum = false;
+  double e_t1 = 0.0;  // E at t1 from the first pass (two-step: the front's t1 sample)
+  Eigen::Vector2d c_front_t1 = Eigen::Vector2d::Zero();  // ... and its CoM offset
+  bool takeoff_posture = false;                          // q_to, c_to, qd_to and wheel_to are final
   PlanarState mid, takeoff, touchdown;
   Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
   double front_wheel_rate_t1 = 0.0;
@@ -79,11 +88,24 @@ struct Sample {
 
 // ---- take-off (jump_model_takeoff.cpp)
 
-// Solves the take-off for candidate u and, with `flight`, its converged posture at take-off
-// and the flight attitude (otherwise solveTakeoffPosture() and solveFlight() complete S
-// later). Returns false if u has no valid trajectory.
+// Solves the take-off for candidate u and, with `complete`, the stance momentum, the converged
+// posture at take-off and the flight attitude (otherwise solveStanceMomentum(),
+// solveTakeoffPosture() and solveFlight() complete S later). Returns false if u has no valid
+// trajectory.
 bool solve(const JumpModelConstants& M, const Eigen::Ref<const Eigen::VectorXd>& u, Solved& S,
-           bool flight = true);
+           bool complete = true);
+// The legs' and wheels' share of the angular momentum in stance (docs/planner.md, "Stance
+// momentum"): E = (whole robot's momentum about the CoM) - I theta' at nodes of the first
+// pass's path, interpolated per phase, and the pitch solved again with it. Once per S; nothing
+// unless settings.stance_momentum.
+bool solveStanceMomentum(const JumpModelConstants& M, Solved& S);
+// The nose-up angular momentum about the CoM of a take-off sample (legs, wheels' spin and
+// body) less the rigid body's I theta' [kg m^2/s].
+double stanceMomentumExcess(const JumpModelConstants& M, const Sample& smp);
+// ... of the pairs' (HFE, KFE) q and qd, wheel joint rates and body pitch rate w.
+double stanceMomentumExcess(const JumpModelConstants& M, const std::array<Eigen::Vector2d, 2>& q,
+                            const std::array<Eigen::Vector2d, 2>& qd,
+                            const std::array<double, 2>& wheel_rate, double w);
 // The CoM state at time t (take-off polynomials, flight table, or ballistic with gravity g).
 PlanarState stateAt(const JumpModelConstants& M, const Solved& S, double t, double g);
 // `s` moved ballistically by dt under gravity g, pitch rate held.
@@ -92,7 +114,10 @@ PlanarState ballisticG(const PlanarState& s, double dt, double g);
 // ---- stance (jump_model_stance.cpp)
 
 // The converged posture at take-off (q_to, c_to, qd_to, wheel_to) of a solved take-off.
+// (Once per S: it returns at once if solveStanceMomentum() has already set it.)
 void solveTakeoffPosture(const JumpModelConstants& M, Solved& S);
+// The same from a converged sample at t2 of the final path.
+void setTakeoffPosture(const Sample& smp, Solved& S);
 // The CoM in the base frame for the pairs' poses, and its Jacobians d c / d q_pair.
 Eigen::Vector2d comOffset(const JumpModelConstants& M, const LegPose& hind, const LegPose& front);
 std::array<Eigen::Matrix2d, 2> comJacobians(const JumpModelConstants& M, const LegPose& hind,
@@ -101,10 +126,15 @@ std::array<Eigen::Matrix2d, 2> comJacobians(const JumpModelConstants& M, const L
 LegPose poseOf(const Eigen::Vector2d& q);
 // Kinematics and statics of both pairs at time t of the take-off (see the definition), in
 // two halves: the posture, and the statics on it.
+// `tolerance`: the converged iteration's last step [m] (1e-8 m at the hip is ~5e-8 rad at the
+// joints).
+inline constexpr double kCoMTolerance = 1e-7;
 void contactSample(const JumpModelConstants& M, const Solved& S, double t, Sample& out, bool phase2,
-                   const Eigen::Vector2d& c_guess, bool converge = false);
+                   const Eigen::Vector2d& c_guess, bool converge = false,
+                   double tolerance = kCoMTolerance);
 void contactPosture(const JumpModelConstants& M, const Solved& S, double t, Sample& out,
-                    bool phase2, const Eigen::Vector2d& c_guess, bool converge);
+                    bool phase2, const Eigen::Vector2d& c_guess, bool converge,
+                    double tolerance = kCoMTolerance);
 void contactStatics(const JumpModelConstants& M, const Solved& S, Sample& out);
 
 // ---- flight (jump_model_flight.cpp)

@@ -14,10 +14,8 @@ namespace {
 // Fixed-point steps for the posture-dependent CoM offset per sample, warm-started from the
 // previous sample (the contraction factor is the legs' mass fraction, ~0.35), plus a final pass.
 constexpr int kCoMIterations = 1;
-// ... and, where a sample must be converged, at most this many, to this step [m] (1e-8 m at
-// the hip is ~5e-8 rad at the joints).
+// ... and, where a sample must be converged, at most this many (to `tolerance`).
 constexpr int kCoMMaxIterations = 50;
-constexpr double kCoMTolerance = 1e-7;
 
 // Joint torques of a leg in contact (massless links, force at the contact point), and the
 // wheel's rate and torque.
@@ -41,8 +39,14 @@ void statics(const JumpModelConstants& M, const PlanarState& s, const Rot2& R, c
 // The converged posture at take-off (q_to, c_to, qd_to, wheel_to) of a solved take-off, which
 // the flight needs (and the FromTakeoff chain).
 void solveTakeoffPosture(const JumpModelConstants& M, Solved& S) {
+  if (S.takeoff_posture) return;
   Sample smp;
   contactSample(M, S, S.t2, smp, S.two_step, M.c0, /*converge=*/true);
+  setTakeoffPosture(smp, S);
+}
+
+void setTakeoffPosture(const Sample& smp, Solved& S) {
+  S.takeoff_posture = true;
   S.q_to = {smp.hind.q, smp.front.q};
   S.c_to = smp.c;
   S.qd_to = {smp.hind.qd, smp.front.qd};
@@ -97,8 +101,8 @@ LegPose poseOf(const Eigen::Vector2d& q) {
 // constraint sweeps, whose consecutive samples are close, take one step; the take-off posture
 // and the plan's references must not depend on where the iteration started).
 void contactSample(const JumpModelConstants& M, const Solved& S, double t, Sample& out, bool phase2,
-                   const Eigen::Vector2d& c_guess, bool converge) {
-  contactPosture(M, S, t, out, phase2, c_guess, converge);
+                   const Eigen::Vector2d& c_guess, bool converge, double tolerance) {
+  contactPosture(M, S, t, out, phase2, c_guess, converge, tolerance);
   contactStatics(M, S, out);
 }
 
@@ -106,7 +110,7 @@ void contactSample(const JumpModelConstants& M, const Solved& S, double t, Sampl
 // (sines and cosines only, but for the front pair's fixed phase-2 pose). What the next
 // sample's warm start needs, and no more.
 void contactPosture(const JumpModelConstants& M, const Solved& S, double t, Sample& out,
-                    bool phase2, const Eigen::Vector2d& c_guess, bool converge) {
+                    bool phase2, const Eigen::Vector2d& c_guess, bool converge, double tolerance) {
   out.t = t;
   out.t1 = S.t1;
   out.phase2 = phase2;
@@ -160,7 +164,7 @@ void contactPosture(const JumpModelConstants& M, const Solved& S, double t, Samp
     const Eigen::Vector2d c_next = comOffset(M, pH, pF);
     const Eigen::Vector2d step = c_next - c;
     c = c_next;
-    if (step.squaredNorm() < kCoMTolerance * kCoMTolerance) break;
+    if (step.squaredNorm() < tolerance * tolerance) break;
     // The map is close to linear: every second step, extrapolate the geometric series of the
     // last two steps (vector Aitken, Irons-Tuck).
     const Eigen::Vector2d dd = step - step_before;

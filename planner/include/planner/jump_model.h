@@ -79,6 +79,7 @@ struct PairGeometry {
   Eigen::Vector2d c_lower = Eigen::Vector2d::Zero();  ///< their CoM in the shank frame, x-z
   double i_thigh = 0.0;  ///< thigh pitch inertia about its CoM [kg m^2]
   double i_lower = 0.0;  ///< shank + wheel (point mass) pitch inertia about their CoM
+  double i_wheel = 0.0;  ///< the wheel's inertia about its axle (its spin) [kg m^2]
 };
 
 /// What a JumpModel derives from the robot, the settings, the task and the initial state, once,
@@ -103,6 +104,9 @@ struct JumpModelConstants {
   Eigen::Vector2d c_land = Eigen::Vector2d::Zero();     ///< ... and at the landing posture
   Eigen::Vector2d box_half = Eigen::Vector2d::Zero();   ///< half box size x, z
   Eigen::Vector2d q_landing = Eigen::Vector2d::Zero();  ///< (HFE, KFE) landing posture
+  /// The legs' and wheels' momentum at t = 0 beyond the rigid body's (E(0), docs/planner.md,
+  /// "Stance momentum") [kg m^2/s].
+  double e0 = 0.0;
   model::ActuatorEnvelope env_haa, env_hfe, env_kfe, env_wheel;
   std::array<double, 2> lim_hfe{}, lim_kfe{};
   Eigen::VectorXd lower, upper;  ///< search box of u
