@@ -67,6 +67,55 @@ struct Evaluation {
   std::array<double, kNumJointKinds> max_abs_speed_rad_s{};
 };
 
+namespace detail {
+
+/// Sagittal mass geometry of one leg pair (left leg; the right one mirrors it).
+struct PairGeometry {
+  Eigen::Vector2d hfe_b = Eigen::Vector2d::Zero();  ///< HFE axis in the base frame, x-z [m]
+  double haa_lever = 0.0;  ///< lateral offset HAA axis -> wheel plane, left leg [m]
+  double m_thigh = 0.0;    ///< thigh mass of one leg [kg]
+  Eigen::Vector2d c_thigh = Eigen::Vector2d::Zero();  ///< its CoM in the thigh frame, x-z
+  double m_lower = 0.0;                               ///< shank + wheel mass of one leg [kg]
+  Eigen::Vector2d c_lower = Eigen::Vector2d::Zero();  ///< their CoM in the shank frame, x-z
+  double i_thigh = 0.0;  ///< thigh pitch inertia about its CoM [kg m^2]
+  double i_lower = 0.0;  ///< shank + wheel (point mass) pitch inertia about their CoM
+  double i_wheel = 0.0;  ///< the wheel's inertia about its axle (its spin) [kg m^2]
+};
+
+/// What a JumpModel derives from the robot, the settings, the task and the initial state, once,
+/// in its constructor: the immutable half of the model (the per-evaluation half is the
+/// caller's Evaluation and the solver's workspace). Read by the model's own translation units
+/// (planner/src/jump_model_*.cpp) through JumpModel::constants().
+struct JumpModelConstants {
+  model::RobotModel robot;
+  PlannerSettings settings;
+  JumpTask task;
+  InitialState init_input;  ///< the initial state as given
+  PlanarState initial;      ///< the CoM state at t = 0 (x = 0)
+  PlanarLeg leg;
+  PairGeometry hind, front;
+  double mass = 0.0, inertia = 0.0, wheel_radius = 0.0;
+  double d_hind = 0.0, d_front = 0.0;  ///< wheel axle x offsets from the CoM at t = 0 [m]
+  double z_land = 0.0;                 ///< CoM height at touchdown, landing posture [m]
+  double mass_fixed = 0.0;             ///< base and hip links [kg]
+  Eigen::Vector2d moment_fixed = Eigen::Vector2d::Zero();  ///< their first moment, base x-z
+  double i_fixed = 0.0;  ///< pitch inertia of the base and hips about their CoM [kg m^2]
+  Eigen::Vector2d c0 = Eigen::Vector2d::Zero();         ///< CoM in the base, initial posture
+  Eigen::Vector2d c_land = Eigen::Vector2d::Zero();     ///< ... and at the landing posture
+  Eigen::Vector2d box_half = Eigen::Vector2d::Zero();   ///< half box size x, z
+  Eigen::Vector2d q_landing = Eigen::Vector2d::Zero();  ///< (HFE, KFE) landing posture
+  /// The legs' and wheels' momentum at t = 0 beyond the rigid body's (E(0), docs/planner.md,
+  /// "Stance momentum") [kg m^2/s].
+  double e0 = 0.0;
+  model::ActuatorEnvelope env_haa, env_hfe, env_kfe, env_wheel;
+  std::array<double, 2> lim_hfe{}, lim_kfe{};
+  Eigen::VectorXd lower, upper;  ///< search box of u
+  int num_constraint_samples = 0;
+  int per_contact_sample = 0, per_flight_sample = 0, num_contact_samples = 0;
+};
+
+}  // namespace detail
+
 /// Immutable jump model for one (robot, settings, task, initial state).
 class JumpModel {
  public:
@@ -76,8 +125,8 @@ class JumpModel {
 
   int dimension() const { return kNumDecision; }
   /// Search box of u; fixed entries (lower == upper) for a simultaneous take-off.
-  const Eigen::VectorXd& lowerBounds() const { return lower_; }
-  const Eigen::VectorXd& upperBounds() const { return upper_; }
+  const Eigen::VectorXd& lowerBounds() const { return k_.lower; }
+  const Eigen::VectorXd& upperBounds() const { return k_.upper; }
 
   /// Evaluates candidate u into `ev`. Allocation-free; safe to call concurrently. With a
   /// finite `cutoff` it stops once the cost is known to exceed it (the target's position first,
@@ -94,7 +143,7 @@ class JumpModel {
   double targetErrorCost(const Eigen::Ref<const Eigen::Vector4d>& e) const;
 
   /// Number of individual constraint samples (fixed for this model), for the polish.
-  int numConstraintSamples() const { return num_constraint_samples_; }
+  int numConstraintSamples() const { return k_.num_constraint_samples; }
   /// Where constraint sample i of evaluateConstraints() comes from: the same margin (a joint's
   /// torque, a wheel's normal force, ...) sampled over time forms one channel.
   struct SampleOrigin {
@@ -123,13 +172,15 @@ class JumpModel {
                       const Evaluation* evaluation = nullptr) const;
 
   /// CoM state at t = 0 (x = 0).
-  const PlanarState& initialState() const { return initial_; }
+  const PlanarState& initialState() const { return k_.initial; }
   /// CoM height at touchdown in the landing posture [m].
-  double landingHeight() const { return z_land_; }
-  double mass() const { return mass_; }
-  double pitchInertia() const { return inertia_; }
-  const JumpTask& task() const { return task_; }
-  const PlannerSettings& settings() const { return settings_; }
+  double landingHeight() const { return k_.z_land; }
+  double mass() const { return k_.mass; }
+  double pitchInertia() const { return k_.inertia; }
+  const JumpTask& task() const { return k_.task; }
+  const PlannerSettings& settings() const { return k_.settings; }
+  /// Everything the model derived in its constructor (for the model's own source files).
+  const detail::JumpModelConstants& constants() const { return k_; }
   /// Normalisation scale of a class's margins in the penalty (sigma_n = violation / scale).
   static double classScale(ConstraintClass c);
   /// Priority n of a class in the penalty W_n (10^(n+3) + 10^n sigma_n); 10 is the highest.
@@ -147,40 +198,7 @@ class JumpModel {
   // `evaluation`'s predicted outcome if it is this model's full evaluation of u, else u's.
   JumpOutcome predictedOutcome(const Eigen::Ref<const Eigen::VectorXd>& u,
                                const Evaluation* evaluation) const;
-  friend struct JumpModelAccess;
-  struct Geometry {
-    Eigen::Vector2d hfe_b = Eigen::Vector2d::Zero();  ///< HFE axis in the base frame, x-z [m]
-    double haa_lever = 0.0;  ///< lateral offset HAA axis -> wheel plane, left leg [m]
-    double m_thigh = 0.0;    ///< thigh mass of one leg [kg]
-    Eigen::Vector2d c_thigh = Eigen::Vector2d::Zero();  ///< its CoM in the thigh frame, x-z
-    double m_lower = 0.0;                               ///< shank + wheel mass of one leg [kg]
-    Eigen::Vector2d c_lower = Eigen::Vector2d::Zero();  ///< their CoM in the shank frame, x-z
-    double i_thigh = 0.0;  ///< thigh pitch inertia about its CoM [kg m^2]
-    double i_lower = 0.0;  ///< shank + wheel (point mass) pitch inertia about their CoM
-  };
-
-  model::RobotModel robot_;
-  PlannerSettings settings_;
-  JumpTask task_;
-  InitialState init_input_;
-  PlanarState initial_;
-  PlanarLeg leg_;
-  Geometry hind_, front_;
-  double mass_ = 0.0, inertia_ = 0.0, wheel_radius_ = 0.0;
-  double d_hind_ = 0.0, d_front_ = 0.0;  ///< wheel axle x offsets from the CoM at t = 0 [m]
-  double z_land_ = 0.0;
-  double mass_fixed_ = 0.0;                                 ///< base and hip links [kg]
-  Eigen::Vector2d moment_fixed_ = Eigen::Vector2d::Zero();  ///< their first moment, base x-z
-  double i_fixed_ = 0.0;  ///< pitch inertia of the base and hips about their CoM [kg m^2]
-  Eigen::Vector2d c0_ = Eigen::Vector2d::Zero();         ///< CoM in the base at the initial posture
-  Eigen::Vector2d c_land_ = Eigen::Vector2d::Zero();     ///< ... and at the landing posture
-  Eigen::Vector2d box_half_ = Eigen::Vector2d::Zero();   ///< half box size x, z
-  Eigen::Vector2d q_landing_ = Eigen::Vector2d::Zero();  ///< (HFE, KFE) landing posture
-  model::ActuatorEnvelope env_haa_, env_hfe_, env_kfe_, env_wheel_;
-  std::array<double, 2> lim_hfe_{}, lim_kfe_{};
-  Eigen::VectorXd lower_, upper_;
-  int num_constraint_samples_ = 0;
-  int per_contact_sample_ = 0, per_flight_sample_ = 0, num_contact_samples_ = 0;
+  detail::JumpModelConstants k_;
 };
 
 }  // namespace wj::planner

@@ -79,6 +79,11 @@ struct PlannerSettings {
   /// The drives' torque limit in the model (see ActuatorModel); the simulation always uses the
   /// envelope.
   ActuatorModel actuator_model = ActuatorModel::Envelope;
+  /// Take-off pitch on the whole robot's angular momentum, the legs' and wheels' included
+  /// (docs/planner.md, "Stance momentum"); off: a rigid body. Off by default, and not yet a
+  /// settings-file key nor in the service's settings hash (server/src/cache_key.cpp): with it,
+  /// plans are consistent but not closer to Simbody until the lift-off is modelled.
+  bool stance_momentum = false;
 
   // --- postures (sagittal angles of every leg; HAA held at 0)
   double stand_hfe_rad = 1.0;  ///< take-off start posture used by the presets

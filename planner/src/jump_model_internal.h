@@ -1,0 +1,156 @@
+#pragma once
+/// @file The jump model's internals, shared by its source files (planner/src/jump_model_*.cpp):
+/// the solved take-off of one candidate (Solved), one take-off sample's kinematics and statics
+/// (Sample), and the free functions that compute them from the model's constants. Everything
+/// here is per evaluation: the model (JumpModelConstants) is read, never written.
+///
+///   jump_model_takeoff.cpp      forces, CoM and pitch of the take-off (the linear solves)
+///   jump_model_stance.cpp       contact posture, joint rates and statics of a take-off sample
+///   jump_model_flight.cpp       centroidal momentum, flight attitude and leg motion
+///   jump_model_constraints.cpp  the constraint sweep, target errors and the cost (evaluate)
+///   jump_model_plan.cpp         the plan's rows, knots and header
+///   jump_model.cpp              the constructor: the constants from robot, settings and task
+
+#include <Eigen/Core>
+#include <array>
+
+#include "jump_model_math.h"
+#include "planner/jump_model.h"
+
+namespace wj::planner::detail {
+
+/// The solved take-off: every polynomial of the trajectory.
+struct Solved {
+  bool two_step = false;
+  double t1 = 0, T2 = 0, t2 = 0, Tf = 0, t3 = 0;
+  Poly X1, Z1, P1, VX1, VZ1, W1;  // phase 1, in t
+  Poly fHx1, fHz1, fFx1, fFz1;    // pair forces, phase 1
+  Poly X2, Z2, P2, VX2, VZ2, W2;  // phase 2, in tau = t - t1
+  Poly fHx2, fHz2;                // hind forces, phase 2
+  Poly dH2, ddH2;                 // hind axle offset from the CoM and its rate, phase 2
+  Poly Fx1, Fz1, Fx2, Fz2;        // total ground force per phase (x and z axis solves)
+  double pm = 0, pe = 0, we = 0;  // pitch targets: at t1/2, at t2, pitch rate at t2
+  // The legs' and wheels' momentum in stance, E(t) - E(0): phase 1 in t, phase 2 in tau
+  // (solveStanceMomentum; zero until it ran, which `stance_momentum` records).
+  Poly D1, D2;
+  bool stance_momentum = false;
+  double e_t1 = 0.0;  // E at t1 from the first pass (two-step: the front's t1 sample)
+  Eigen::Vector2d c_front_t1 = Eigen::Vector2d::Zero();  // ... and its CoM offset
+  bool takeoff_posture = false;                          // q_to, c_to, qd_to and wheel_to are final
+  PlanarState mid, takeoff, touchdown;
+  Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
+  double front_wheel_rate_t1 = 0.0;
+  LegPose front_pose_t1;  // inversePose(front_b_t1), and its reach margin
+  double front_reach_t1 = 0.0;
+  // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
+  // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
+  // moving (docs/planner.md, "Flight").
+  std::array<Eigen::Vector2d, 2> q_to{}, qd_to{};
+  Eigen::Vector2d c_to = Eigen::Vector2d::Zero();  // CoM in the base at take-off
+  std::array<double, 2> wheel_to{};
+  int n_flight = 0;
+  std::array<double, 257> flight_pitch{}, flight_rate{};
+  // The legs' (HFE, KFE) per pair and the CoM in the base at the same flight instants.
+  std::array<std::array<Eigen::Vector2d, 257>, 2> flight_q{};
+  std::array<Eigen::Vector2d, 257> flight_c{};
+};
+
+/// Kinematics and statics of one wheel pair at one instant (left leg; right is mirrored).
+struct PairSample {
+  bool contact = false;
+  Eigen::Vector2d q = Eigen::Vector2d::Zero();     // HFE, KFE [rad]
+  Eigen::Vector2d qd = Eigen::Vector2d::Zero();    // [rad/s]
+  Eigen::Vector2d tau = Eigen::Vector2d::Zero();   // HFE, KFE [Nm]
+  double haa_fz = 0.0;                             // body-z force per wheel, for the HAA torque [N]
+  double wheel_rate = 0.0;                         // wheel joint speed [rad/s]
+  double wheel_tau = 0.0;                          // [Nm]
+  Eigen::Vector2d f = Eigen::Vector2d::Zero();     // ground force per wheel, J frame [N]
+  Eigen::Vector2d axle = Eigen::Vector2d::Zero();  // axle position in J [m]
+  double reach = 0.0;                              // reach margin [m]
+};
+
+struct Sample {
+  double t = 0.0;
+  double t1 = 0.0;                              // end of the four-wheel phase
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();  // CoM in the base frame (x-z)
+  PlanarState s;
+  Rot2 R;  // of s.pitch
+  PairSample hind, front;
+  // What the posture half of a sample (contactPosture) leaves for its statics half: the phase,
+  // the time in it, the poses without angles, the axles relative to the CoM (base frame) and
+  // the hind axle's speed.
+  bool phase2 = false;
+  double local = 0.0;
+  LegPose pose_h, pose_f;
+  Eigen::Vector2d rel_h = Eigen::Vector2d::Zero(), rel_f = Eigen::Vector2d::Zero();
+  double hind_axle_vx = 0.0;
+};
+
+// ---- take-off (jump_model_takeoff.cpp)
+
+// Solves the take-off for candidate u and, with `complete`, the stance momentum, the converged
+// posture at take-off and the flight attitude (otherwise solveStanceMomentum(),
+// solveTakeoffPosture() and solveFlight() complete S later). Returns false if u has no valid
+// trajectory.
+bool solve(const JumpModelConstants& M, const Eigen::Ref<const Eigen::VectorXd>& u, Solved& S,
+           bool complete = true);
+// The legs' and wheels' share of the angular momentum in stance (docs/planner.md, "Stance
+// momentum"): E = (whole robot's momentum about the CoM) - I theta' at nodes of the first
+// pass's path, interpolated per phase, and the pitch solved again with it. Once per S; nothing
+// unless settings.stance_momentum.
+bool solveStanceMomentum(const JumpModelConstants& M, Solved& S);
+// The nose-up angular momentum about the CoM of a take-off sample (legs, wheels' spin and
+// body) less the rigid body's I theta' [kg m^2/s].
+double stanceMomentumExcess(const JumpModelConstants& M, const Sample& smp);
+// ... of the pairs' (HFE, KFE) q and qd, wheel joint rates and body pitch rate w.
+double stanceMomentumExcess(const JumpModelConstants& M, const std::array<Eigen::Vector2d, 2>& q,
+                            const std::array<Eigen::Vector2d, 2>& qd,
+                            const std::array<double, 2>& wheel_rate, double w);
+// The CoM state at time t (take-off polynomials, flight table, or ballistic with gravity g).
+PlanarState stateAt(const JumpModelConstants& M, const Solved& S, double t, double g);
+// `s` moved ballistically by dt under gravity g, pitch rate held.
+PlanarState ballisticG(const PlanarState& s, double dt, double g);
+
+// ---- stance (jump_model_stance.cpp)
+
+// The converged posture at take-off (q_to, c_to, qd_to, wheel_to) of a solved take-off.
+// (Once per S: it returns at once if solveStanceMomentum() has already set it.)
+void solveTakeoffPosture(const JumpModelConstants& M, Solved& S);
+// The same from a converged sample at t2 of the final path.
+void setTakeoffPosture(const Sample& smp, Solved& S);
+// The CoM in the base frame for the pairs' poses, and its Jacobians d c / d q_pair.
+Eigen::Vector2d comOffset(const JumpModelConstants& M, const LegPose& hind, const LegPose& front);
+std::array<Eigen::Matrix2d, 2> comJacobians(const JumpModelConstants& M, const LegPose& hind,
+                                            const LegPose& front);
+// The sines and cosines of posture q (no inverse kinematics).
+LegPose poseOf(const Eigen::Vector2d& q);
+// Kinematics and statics of both pairs at time t of the take-off (see the definition), in
+// two halves: the posture, and the statics on it.
+// `tolerance`: the converged iteration's last step [m] (1e-8 m at the hip is ~5e-8 rad at the
+// joints).
+inline constexpr double kCoMTolerance = 1e-7;
+void contactSample(const JumpModelConstants& M, const Solved& S, double t, Sample& out, bool phase2,
+                   const Eigen::Vector2d& c_guess, bool converge = false,
+                   double tolerance = kCoMTolerance);
+void contactPosture(const JumpModelConstants& M, const Solved& S, double t, Sample& out,
+                    bool phase2, const Eigen::Vector2d& c_guess, bool converge,
+                    double tolerance = kCoMTolerance);
+void contactStatics(const JumpModelConstants& M, const Solved& S, Sample& out);
+
+// ---- flight (jump_model_flight.cpp)
+
+// Whole-robot pitch inertia about the CoM and the legs' angular momentum relative to the base.
+void flightMomentum(const JumpModelConstants& M, const std::array<Eigen::Vector2d, 2>& q,
+                    const std::array<Eigen::Vector2d, 2>& qd, double& i_total, double& h,
+                    Eigen::Vector2d* com_in_base = nullptr);
+// The flight attitude and the touchdown state of a solved take-off.
+void solveFlight(const JumpModelConstants& M, Solved& S);
+// The state in flight: ballistic CoM, attitude from the table.
+PlanarState flightState(const JumpModelConstants& M, const Solved& S, double t);
+// (HFE, KFE) of a pair in flight at time t, and its rate if `qd`.
+Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S,
+                              const Eigen::Vector2d& q_takeoff, double t, Eigen::Vector2d* qd);
+// Wheel joint rate of a pair in flight.
+double flightWheelRate(const JumpModelConstants& M, const Solved& S, int pair, double t);
+
+}  // namespace wj::planner::detail

@@ -1,0 +1,315 @@
+// The plan export of the jump model: the dense references (buildPlan), the adaptive knots
+// (buildKnots) and the header they share (phase times, force polynomials, decision vector).
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+#include "jump_model_internal.h"
+
+namespace wj::planner {
+
+namespace detail {
+namespace {
+
+using Joints = Eigen::Matrix<double, model::kNumJoints, 1>;
+
+// One instant of the references, except the wheel joint angles, which the caller integrates
+// from the wheel rates.
+struct PlanRow {
+  PlanarState s;
+  Joints q = Joints::Zero(), qd = Joints::Zero(), tau = Joints::Zero();
+};
+
+enum class Segment { FourWheels, HindOnly, Flight };
+
+constexpr std::array<int, model::kNumLegs> kWheelJoints = {
+    model::jointIndex(model::Leg::LF, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::RF, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::LH, model::JointKind::Wheel),
+    model::jointIndex(model::Leg::RH, model::JointKind::Wheel)};
+
+Segment segmentAt(const Solved& S, double t) {
+  if (t > S.t2) return Segment::Flight;
+  return S.two_step && t > S.t1 ? Segment::HindOnly : Segment::FourWheels;
+}
+
+// The references at time t in `segment` (the segment's own values at its boundaries).
+// `c_guess` warm-starts the contact sample's CoM-offset iteration and is updated.
+void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment segment,
+             Eigen::Vector2d& c_guess, PlanRow& out) {
+  using model::JointKind;
+  using model::Leg;
+  std::array<Eigen::Vector2d, 2> q, qd;
+  std::array<double, 2> wheel_rate{}, wheel_tau{}, haa_fz{};
+  out.tau.setZero();
+  if (segment != Segment::Flight) {
+    Sample smp;
+    contactSample(M, S, t, smp, segment == Segment::HindOnly, c_guess,
+                  /*converge=*/true);
+    c_guess = smp.c;
+    out.s = smp.s;
+    int i = 0;
+    for (const PairSample* p : {&smp.hind, &smp.front}) {
+      q[i] = p->q;
+      qd[i] = p->contact ? p->qd : Eigen::Vector2d::Zero();
+      wheel_rate[i] = p->wheel_rate;
+      wheel_tau[i] = p->contact ? p->wheel_tau : 0.0;
+      haa_fz[i] = p->contact ? p->haa_fz : 0.0;
+      ++i;
+    }
+    for (int pair = 0; pair < 2; ++pair) {
+      const PairSample& p = pair == 0 ? smp.hind : smp.front;
+      for (const Leg leg : model::kLegs) {
+        if ((pair == 0) == model::isFront(leg)) continue;
+        out.tau[model::jointIndex(leg, JointKind::HFE)] = p.contact ? p.tau[0] : 0.0;
+        out.tau[model::jointIndex(leg, JointKind::KFE)] = p.contact ? p.tau[1] : 0.0;
+      }
+    }
+  } else {
+    out.s = flightState(M, S, t);
+    for (int pair = 0; pair < 2; ++pair) {
+      q[pair] = flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
+      wheel_rate[pair] = flightWheelRate(M, S, pair, t);
+    }
+  }
+  for (const Leg leg : model::kLegs) {
+    const int pair = model::isFront(leg) ? 1 : 0;
+    const int haa = model::jointIndex(leg, JointKind::HAA);
+    const double lever =
+        M.robot.legGeometry(leg).p_HT.y() + M.robot.legGeometry(leg).wheel_lateral_offset;
+    out.q[haa] = M.init_input.q[haa];
+    out.qd[haa] = 0.0;
+    out.tau[haa] = -lever * haa_fz[pair];
+    out.q[haa + 1] = q[pair][0];
+    out.q[haa + 2] = q[pair][1];
+    out.qd[haa + 1] = qd[pair][0];
+    out.qd[haa + 2] = qd[pair][1];
+    out.qd[haa + 3] = wheel_rate[pair];
+    out.tau[haa + 3] = wheel_tau[pair];
+  }
+}
+
+// D = [s(t1/2), s(t2), s(t3), t1, t2, t3] of a solved candidate.
+Eigen::VectorXd decisionOf(const Solved& S) {
+  Eigen::VectorXd D(12);
+  D << S.mid.x, S.mid.z, S.mid.pitch, S.takeoff.x, S.takeoff.z, S.takeoff.pitch, S.touchdown.x,
+      S.touchdown.z, S.touchdown.pitch, S.t1, S.t2, S.t3;
+  return D;
+}
+
+// The plan's phase times, force polynomials, postures and decision vector: all but the sampled
+// trajectory.
+void fillPlanHeader(const Solved& S, const JumpTask& task, const InitialState& init,
+                    const Eigen::Vector2d& q_landing, const PlanarState& initial, JumpPlan& plan) {
+  using model::JointKind;
+  plan.mode = task.mode;
+  plan.t1 = S.t1;
+  plan.t2 = S.t2;
+  plan.t3 = S.t3;
+  ForcePhase p1;
+  p1.t_start = 0.0;
+  p1.t_end = S.t1;
+  p1.hind = {toPolynomial(S.fHx1), toPolynomial(S.fHz1)};
+  p1.front = {toPolynomial(S.fFx1), toPolynomial(S.fFz1)};
+  plan.force_phases.push_back(p1);
+  if (S.two_step) {
+    ForcePhase p2;
+    p2.t_start = S.t1;
+    p2.t_end = S.t2;
+    p2.hind = {toPolynomial(S.fHx2), toPolynomial(S.fHz2)};
+    p2.front = {Polynomial{{0.0}}, Polynomial{{0.0}}};
+    plan.force_phases.push_back(p2);
+  }
+  plan.initial = initial;
+  plan.q_initial = init.q;
+  plan.q_landing = init.q;
+  for (const model::Leg leg : model::kLegs) {
+    plan.q_landing[model::jointIndex(leg, JointKind::HFE)] = q_landing[0];
+    plan.q_landing[model::jointIndex(leg, JointKind::KFE)] = q_landing[1];
+  }
+  plan.decision = decisionOf(S);
+}
+
+}  // namespace
+}  // namespace detail
+
+Eigen::VectorXd JumpModel::decisionVector(const Eigen::Ref<const Eigen::VectorXd>& u) const {
+  detail::Solved S;
+  if (!detail::solve(k_, u, S))
+    throw std::runtime_error("JumpModel::decisionVector: candidate has no valid trajectory");
+  return detail::decisionOf(S);
+}
+
+JumpOutcome JumpModel::predictedOutcome(const Eigen::Ref<const Eigen::VectorXd>& u,
+                                        const Evaluation* evaluation) const {
+  if (evaluation != nullptr && evaluation->valid && !evaluation->cut_off)
+    return evaluation->predicted;
+  Evaluation ev;
+  evaluate(u, ev);
+  return ev.predicted;
+}
+
+JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
+                              const Evaluation* evaluation) const {
+  detail::Solved S;
+  if (!detail::solve(k_, u, S))
+    throw std::runtime_error("JumpModel::buildPlan: candidate has no valid trajectory");
+  JumpPlan plan;
+  detail::fillPlanHeader(S, k_.task, k_.init_input, k_.q_landing, k_.initial, plan);
+  plan.dt = k_.settings.output_dt_s;
+  const int N = static_cast<int>(std::ceil(S.t3 / plan.dt - 1e-9)) + 1;
+  plan.centroidal.resize(N);
+  plan.q.setZero(N, model::kNumJoints);
+  plan.qd.setZero(N, model::kNumJoints);
+  plan.tau.setZero(N, model::kNumJoints);
+  Eigen::Vector2d c_guess = k_.c0, c_before = k_.c0;
+  detail::PlanRow row;
+  for (int k = 0; k < N; ++k) {
+    const double t = std::min(k * plan.dt, S.t3);
+    // The CoM offset's iteration starts from its linear extrapolation over the last two samples.
+    const Eigen::Vector2d c_last = c_guess;
+    if (k >= 2) c_guess = 2.0 * c_last - c_before;
+    c_before = c_last;
+    detail::planRow(k_, S, t, detail::segmentAt(S, t), c_guess, row);
+    plan.centroidal[k] = row.s;
+    plan.q.row(k) = row.q.transpose();
+    plan.qd.row(k) = row.qd.transpose();
+    plan.tau.row(k) = row.tau.transpose();
+    // Wheel angles: the trapezoid rule over the rates.
+    for (const int w : detail::kWheelJoints)
+      plan.q(k, w) = k == 0 ? k_.init_input.q[w]
+                            : plan.q(k - 1, w) + 0.5 * (plan.qd(k - 1, w) + plan.qd(k, w)) *
+                                                     (t - std::min((k - 1) * plan.dt, S.t3));
+  }
+  plan.predicted = predictedOutcome(u, evaluation);
+  return plan;
+}
+
+JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
+                               const Evaluation* evaluation) const {
+  detail::Solved S;
+  if (!detail::solve(k_, u, S))
+    throw std::runtime_error("JumpModel::buildKnots: candidate has no valid trajectory");
+  JumpPlan plan;
+  detail::fillPlanHeader(S, k_.task, k_.init_input, k_.q_landing, k_.initial, plan);
+  plan.dt = 0.0;
+  // Phases and, in flight, the corners of the leg motion (tucked, extending, extended), where
+  // the postures' second derivatives jump: a knot sits on each.
+  struct Piece {
+    double a, b;
+    detail::Segment segment;
+  };
+  std::vector<Piece> pieces;
+  if (S.two_step) {
+    pieces.push_back({0.0, S.t1, detail::Segment::FourWheels});
+    pieces.push_back({S.t1, S.t2, detail::Segment::HindOnly});
+  } else {
+    pieces.push_back({0.0, S.t2, detail::Segment::FourWheels});
+  }
+  double from = S.t2;
+  for (const double f : {k_.settings.tuck_end_fraction, k_.settings.extend_start_fraction,
+                         k_.settings.extend_end_fraction, 1.0}) {
+    const double to = std::min(S.t2 + f * S.Tf, S.t3);
+    if (to > from + 1e-9 || f == 1.0)
+      pieces.push_back({from, f == 1.0 ? S.t3 : to, detail::Segment::Flight});
+    from = std::max(from, to);
+  }
+  // Each piece starts with even knots at most knot_dt_s apart. An interval is then halved
+  // while the references at its midpoint differ from what densify() makes of its two knots by
+  // more than the tolerances below (the legs move fast as they straighten at the end of the
+  // push), down to output_dt_s. The midpoint rows also give the wheel angles (Simpson).
+  constexpr double kQTol = 5e-4;    // joint position [rad]
+  constexpr double kQdTol = 0.05;   // joint velocity [rad/s]
+  constexpr double kTauTol = 0.25;  // torque, against the chord [Nm]
+  struct Knot {
+    double t;
+    detail::Segment segment;
+    detail::PlanRow row;
+    Eigen::Vector4d wheel_mid_rate = Eigen::Vector4d::Zero();  // of the interval ending here
+  };
+  std::vector<Knot> knots;
+  Eigen::Vector2d c_guess = k_.c0;
+  const double min_dt = k_.settings.output_dt_s;
+  auto accurate = [](const Knot& a, const Knot& m, const Knot& b) {
+    const double h = b.t - a.t;
+    for (int j = 0; j < model::kNumJoints; ++j) {
+      if (model::isWheel(j)) continue;
+      const double q0 = a.row.q[j], q1 = b.row.q[j], m0 = a.row.qd[j], m1 = b.row.qd[j];
+      // Cubic Hermite at s = 1/2: value and derivative.
+      const double q_mid = 0.5 * (q0 + q1) + h / 8.0 * (m0 - m1);
+      const double qd_mid = 1.5 * (q1 - q0) / h - 0.25 * (m0 + m1);
+      if (std::abs(q_mid - m.row.q[j]) > kQTol || std::abs(qd_mid - m.row.qd[j]) > kQdTol ||
+          std::abs(0.5 * (a.row.tau[j] + b.row.tau[j]) - m.row.tau[j]) > kTauTol)
+        return false;
+    }
+    return true;
+  };
+  auto refine = [&](auto&& self, const Knot& a, const Knot& b) -> void {
+    Knot m{0.5 * (a.t + b.t), a.segment, {}, {}};
+    Eigen::Vector2d c_mid = c_guess;
+    detail::planRow(k_, S, m.t, m.segment, c_mid, m.row);
+    if (b.t - a.t > 2.0 * min_dt && !accurate(a, m, b)) {
+      self(self, a, m);
+      self(self, m, b);
+      return;
+    }
+    Knot accepted = b;
+    for (int i = 0; i < 4; ++i) accepted.wheel_mid_rate[i] = m.row.qd[detail::kWheelJoints[i]];
+    knots.push_back(accepted);
+  };
+  const double h_max = k_.settings.knot_dt_s;
+  for (std::size_t i = 0; i < pieces.size(); ++i) {
+    const Piece& p = pieces[i];
+    const int n = std::max(1, static_cast<int>(std::ceil((p.b - p.a) / h_max - 1e-9)));
+    // A flight piece continues the one before it: its first knot is that piece's last.
+    const bool continues = i > 0 && p.segment == detail::Segment::Flight &&
+                           pieces[i - 1].segment == detail::Segment::Flight;
+    Knot prev{p.a, p.segment, {}, {}};
+    if (continues) {
+      prev = knots.back();
+    } else {
+      detail::planRow(k_, S, p.a, p.segment, c_guess, prev.row);
+      knots.push_back(prev);
+    }
+    for (int k = 1; k <= n; ++k) {
+      Knot next{k == n ? p.b : p.a + (p.b - p.a) * k / n, p.segment, {}, {}};
+      detail::planRow(k_, S, next.t, next.segment, c_guess, next.row);
+      refine(refine, prev, next);
+      prev = next;
+    }
+  }
+  PlanKnots& K = plan.knots;
+  const int count = static_cast<int>(knots.size());
+  K.t.resize(count);
+  K.centroidal.resize(count);
+  K.q.setZero(count, model::kNumJoints);
+  K.qd.setZero(count, model::kNumJoints);
+  K.tau.setZero(count, model::kNumJoints);
+  for (int k = 0; k < count; ++k) {
+    const Knot& kn = knots[k];
+    K.t[k] = kn.t;
+    K.centroidal[k] = kn.row.s;
+    K.q.row(k) = kn.row.q.transpose();
+    K.qd.row(k) = kn.row.qd.transpose();
+    K.tau.row(k) = kn.row.tau.transpose();
+    // Wheel angles: Simpson's rule over the rates of each interval, continuous across a phase
+    // boundary.
+    for (int i = 0; i < 4; ++i) {
+      const int w = detail::kWheelJoints[i];
+      if (k == 0) {
+        K.q(k, w) = k_.init_input.q[w];
+        continue;
+      }
+      const double h = kn.t - knots[k - 1].t;  // 0 at a phase boundary's second knot
+      K.q(k, w) =
+          K.q(k - 1, w) + h / 6.0 * (K.qd(k - 1, w) + 4.0 * kn.wheel_mid_rate[i] + kn.row.qd[w]);
+    }
+  }
+  plan.predicted = predictedOutcome(u, evaluation);
+  return plan;
+}
+
+}  // namespace wj::planner

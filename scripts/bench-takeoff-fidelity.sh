@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The planner's take-off against Simbody (issue 22) over a grid: forward_hw, forward and
+# vertical at their own run-up speed and at two others, planner seeds 1..N (default 3).
+# Prints one JSON line per case (planned and simulated lift-off time, CoM velocity, angular
+# momentum about the CoM, CoM apex, touchdown pitch and dx; see tests/sim/
+# test_takeoff_fidelity.cpp), then a summary of how many cases meet each of issue 22's
+# targets: |dv| <= 1 % of the speed, |dH| <= 3 %, touchdown pitch <= 0.03 rad, apex <= 1 cm.
+# Usage: scripts/bench-takeoff-fidelity.sh [build dir] [seeds] [stance momentum: 0 | 1]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${1:-build/release}
+BIN=$BUILD/bin/sim_test_takeoff_fidelity
+[ -x "$BIN" ] || { echo "bench-takeoff-fidelity: $BIN not found" >&2; exit 2; }
+OUT=$(WJ_FIDELITY_BENCH=1 WJ_FIDELITY_SEEDS=${2:-3} WJ_FIDELITY_STANCE_MOMENTUM=${3:-0} "$BIN" --gtest_filter='*BenchGrid' | grep '^{')
+echo "$OUT"
+echo "$OUT" | /usr/bin/python3 -c '
+import json, math, sys
+rows = [json.loads(l) for l in sys.stdin if l.strip()]
+def ok(r):
+    (vxp, vxs), (vzp, vzs), (hp, hs) = r["vx"], r["vz"], r["h"]
+    return {"velocity_1pct": math.hypot(vxs - vxp, vzs - vzp) <= 0.01 * math.hypot(vxp, vzp),
+            "momentum_3pct": abs(hs - hp) <= 0.03 * abs(hp),
+            "touchdown_pitch_0.03": abs(r["td_pitch"][1] - r["td_pitch"][0]) <= 0.03,
+            "apex_1cm": abs(r["apex"][1] - r["apex"][0]) <= 0.01}
+summary = {}
+for r in rows:
+    for k, v in ok(r).items():
+        summary.setdefault(k, 0)
+        summary[k] += int(v)
+print(json.dumps({"cases": len(rows), "meeting": summary, "passed": sum(r["passed"] for r in rows)}))
+'

