@@ -5,14 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
-#include <cstdint>
-#include <cstdlib>
-#include <cstring>
-#include <fstream>
-#include <map>
-#include <sstream>
 #include <string>
 
+#include "golden_digests.h"
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
 
@@ -21,30 +16,22 @@ namespace {
 
 const char* const kGoldenFile = WJ_PLANNER_GOLDEN_DIR "/plan_digests.txt";
 
-/// FNV-1a over raw bytes: any change of any bit of any value changes the digest.
+/// A plan's values into a digest: every bit of every value counts.
 class Digest {
  public:
-  void add(const void* data, std::size_t n) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < n; ++i) h_ = (h_ ^ p[i]) * 0x100000001b3ULL;
-  }
-  void add(double v) { add(&v, sizeof v); }
+  void add(double v) { h_.add(&v, sizeof v); }
   void add(const Eigen::MatrixXd& m) {
     add(static_cast<double>(m.rows()));
     add(static_cast<double>(m.cols()));
-    add(m.data(), sizeof(double) * static_cast<std::size_t>(m.size()));
+    h_.add(m.data(), sizeof(double) * static_cast<std::size_t>(m.size()));
   }
   void add(const PlanarState& s) {
     for (const double v : {s.x, s.z, s.pitch, s.vx, s.vz, s.pitch_rate}) add(v);
   }
-  std::string hex() const {
-    std::ostringstream o;
-    o << std::hex << h_;
-    return o.str();
-  }
+  std::string hex() const { return h_.hex(); }
 
  private:
-  std::uint64_t h_ = 0xcbf29ce484222325ULL;
+  test::Fnv1a h_;
 };
 
 /// The digest of everything a plan hands on: the search vector, the evaluation's cost and
@@ -70,23 +57,9 @@ std::string planDigest(const PlannerResult& r) {
   return d.hex();
 }
 
-std::map<std::string, std::string> readGolden() {
-  std::map<std::string, std::string> golden;
-  std::ifstream in(kGoldenFile);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream ls(line);
-    std::string name, hex;
-    ls >> name >> hex;
-    golden[name] = hex;
-  }
-  return golden;
-}
-
 TEST(PlanDigest, EveryPresetIsUnchanged) {
   const JumpPlanner planner(model::RobotModel::loadDefault(), PlannerSettings{});
-  std::map<std::string, std::string> now;
+  test::Digests now;
   for (const std::string& name : presetNames()) {
     const Scenario sc = makePreset(planner, name);
     PlanOptions o;
@@ -94,20 +67,12 @@ TEST(PlanDigest, EveryPresetIsUnchanged) {
     o.threads = 2;
     now[name] = planDigest(planner.plan(sc.task, sc.initial, o));
   }
-  if (const char* u = std::getenv("WJ_UPDATE_PLAN_DIGESTS"); u != nullptr && *u == '1') {
-    std::ofstream out(kGoldenFile);
-    out << "# preset digest (tests/planner/test_plan_digest.cpp; seed 7, 2 threads)\n";
-    for (const auto& [name, hex] : now) out << name << ' ' << hex << '\n';
+  if (test::updateRequested("WJ_UPDATE_PLAN_DIGESTS")) {
+    test::writeGoldenDigests(
+        kGoldenFile, "preset digest (tests/planner/test_plan_digest.cpp; seed 7, 2 threads)", now);
     GTEST_SKIP() << "rewrote " << kGoldenFile;
   }
-  const auto golden = readGolden();
-  ASSERT_FALSE(golden.empty()) << "no digests in " << kGoldenFile;
-  for (const auto& [name, hex] : now) {
-    const auto it = golden.find(name);
-    ASSERT_NE(it, golden.end()) << "no golden digest for preset " << name;
-    EXPECT_EQ(hex, it->second) << "the " << name
-                               << " plan changed; if on purpose, regenerate (see the file's head)";
-  }
+  test::expectGoldenDigests(kGoldenFile, now, "WJ_UPDATE_PLAN_DIGESTS");
 }
 
 // The digest is a property of the seed, not of the thread count or the run.

@@ -10,13 +10,11 @@
 
 #include <cstdint>
 #include <cstdlib>
-#include <fstream>
 #include <future>
 #include <iostream>
-#include <map>
-#include <sstream>
 #include <string>
 
+#include "golden_digests.h"
 #include "planner/presets.h"
 #include "server/planning_core.h"
 #include "server/response_conversion.h"
@@ -28,11 +26,9 @@ namespace {
 const char* const kGoldenFile = WJ_SERVER_GOLDEN_DIR "/answer_digests.txt";
 
 std::string fnv1aHex(const std::string& bytes) {
-  std::uint64_t h = 0xcbf29ce484222325ULL;
-  for (const unsigned char c : bytes) h = (h ^ c) * 0x100000001b3ULL;
-  std::ostringstream o;
-  o << std::hex << h;
-  return o.str();
+  wj::test::Fnv1a h;
+  h.add(bytes.data(), bytes.size());
+  return h.hex();
 }
 
 /// The response's bytes (deterministic serialization) with the wall-clock fields zeroed.
@@ -64,20 +60,6 @@ PlanOutcome ask(PlanningCore& core, PlanRequest request) {
   return future.get();
 }
 
-std::map<std::string, std::string> readGolden() {
-  std::map<std::string, std::string> golden;
-  std::ifstream in(kGoldenFile);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream ls(line);
-    std::string name, hex;
-    ls >> name >> hex;
-    golden[name] = hex;
-  }
-  return golden;
-}
-
 TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
   if (!simVerifierAvailable()) GTEST_SKIP() << "built without the sim component";
   ServerConfig config = test::testConfig("/nonexistent");
@@ -88,7 +70,7 @@ TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
   const model::RobotModel robot = model::RobotModel::loadDefault();
   PlanningCore core(config, robot, planner::PlannerSettings{},
                     makeSimVerifier(robot, config.verification), nullptr);
-  std::map<std::string, std::string> now;
+  wj::test::Digests now;
   for (const std::string& name : planner::presetNames()) {
     const planner::Scenario sc = planner::makePreset(core.planner(), name);
     PlanRequest r;
@@ -113,20 +95,13 @@ TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
     r.trajectory = TrajectoryFormat::Knots;
     now[name + "/hit_knots"] = answerDigest(ask(core, r), core.robot());
   }
-  if (const char* u = std::getenv("WJ_UPDATE_ANSWER_DIGESTS"); u != nullptr && *u == '1') {
-    std::ofstream out(kGoldenFile);
-    out << "# preset/path digest (tests/server/test_answer_digest.cpp; seed 7, Simbody verifier)\n";
-    for (const auto& [name, hex] : now) out << name << ' ' << hex << '\n';
+  if (wj::test::updateRequested("WJ_UPDATE_ANSWER_DIGESTS")) {
+    wj::test::writeGoldenDigests(
+        kGoldenFile,
+        "preset/path digest (tests/server/test_answer_digest.cpp; seed 7, Simbody verifier)", now);
     GTEST_SKIP() << "rewrote " << kGoldenFile;
   }
-  const auto golden = readGolden();
-  ASSERT_FALSE(golden.empty()) << "no digests in " << kGoldenFile;
-  for (const auto& [name, hex] : now) {
-    const auto it = golden.find(name);
-    ASSERT_NE(it, golden.end()) << "no golden digest for " << name;
-    EXPECT_EQ(hex, it->second) << "the answer " << name
-                               << " changed; if on purpose, regenerate (see the file's head)";
-  }
+  wj::test::expectGoldenDigests(kGoldenFile, now, "WJ_UPDATE_ANSWER_DIGESTS");
   // The digest sees every bit: a hit and a miss of one preset differ (the source at least).
   EXPECT_NE(now["forward/miss"], now["forward/hit"]);
 }
