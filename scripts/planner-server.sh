@@ -1,4 +1,4 @@
-# Sourced by the run and bench scripts: starts the planning service on loopback for them.
+# Sourced by the run and bench scripts and the e2e tests: starts the planning service on loopback.
 # shellcheck shell=bash
 #
 #   start_planner_server BIN PORT CACHE_FILE CONFIG_OUT LOG
@@ -7,11 +7,14 @@
 # CACHE_FILE to CONFIG_OUT, starts BIN/planner_server in the background (its pid in SERVER,
 # stopped by stop_planner_server) and waits up to 10 s until it answers.
 
+# The shipped configuration is found beside this file, so callers may run from any folder.
+WJ_PLANNER_SERVER_SH_DIR=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+
 start_planner_server() {
   local bin=$1 port=$2 cache=$3 config=$4 log=$5
   sed -e "s|^listen: .*|listen: \"127.0.0.1:${port}\"|" \
       -e "s|^  path: .*|  path: \"${cache}\"|" \
-      config/planner_server.yaml > "$config"
+      "$WJ_PLANNER_SERVER_SH_DIR/../config/planner_server.yaml" > "$config"
   "$bin/planner_server" --config "$config" > "$log" 2>&1 &
   SERVER=$!
   for _ in $(seq 1 100); do

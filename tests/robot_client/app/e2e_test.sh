@@ -17,15 +17,14 @@ BIN=$1
 SRC=$2
 CASE=$3
 WORK=$(mktemp -d)
-SERVER=""
+# shellcheck source=../../../scripts/planner-server.sh
+source "$SRC/scripts/planner-server.sh"
 cleanup() {
-  if [ -n "$SERVER" ]; then kill "$SERVER" 2>/dev/null || true; wait "$SERVER" 2>/dev/null || true; fi
+  stop_planner_server
   rm -rf "$WORK"
 }
 trap cleanup EXIT
 PORT=${WJ_E2E_PORT:-$(( 52000 + RANDOM % 2000 ))}
-sed -e "s|^listen: .*|listen: \"127.0.0.1:${PORT}\"|" -e "s|^  path: .*|  path: \"\"|" \
-  "$SRC/config/planner_server.yaml" > "$WORK/server.yaml"
 sed -e "s|^  deadline_s: .*|  deadline_s: 6.0|" \
     -e "s|wall: {enabled: true, x_m: 14.0|wall: {enabled: true, x_m: 20.0|" \
   "$SRC/config/robot_client.yaml" > "$WORK/client.yaml"
@@ -33,12 +32,7 @@ grep -q "x_m: 20.0" "$WORK/client.yaml" || { echo "could not move the wall in th
 
 target="127.0.0.1:${PORT}"
 if [ "$CASE" != abort ]; then
-  "$BIN/planner_server" --config "$WORK/server.yaml" > "$WORK/server.log" 2>&1 &
-  SERVER=$!
-  for _ in $(seq 1 100); do
-    "$BIN/planner_cli" --target "$target" --deadline-ms 500 stats > /dev/null 2>&1 && break
-    sleep 0.1
-  done
+  start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log"
 else
   target="127.0.0.1:1"  # nothing listens there
 fi
