@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "jump_model_internal.h"
@@ -133,14 +134,28 @@ void fillPlanHeader(const Solved& S, const JumpTask& task, const InitialState& i
   plan.decision = decisionOf(S);
 }
 
+/// The candidate's trajectory; `caller` names the JumpModel function in the error.
+Solved solvedOrThrow(const JumpModelConstants& k, const Eigen::Ref<const Eigen::VectorXd>& u,
+                     const char* caller) {
+  Solved S;
+  if (!solve(k, u, S))
+    throw std::runtime_error(std::string("JumpModel::") + caller +
+                             ": candidate has no valid trajectory");
+  return S;
+}
+
+/// A plan with its header (phases, forces, postures, decision) filled, no samples yet.
+JumpPlan planHeader(const JumpModelConstants& k, const Solved& S) {
+  JumpPlan plan;
+  fillPlanHeader(S, k.task, k.init_input, k.q_landing, k.initial, plan);
+  return plan;
+}
+
 }  // namespace
 }  // namespace detail
 
 Eigen::VectorXd JumpModel::decisionVector(const Eigen::Ref<const Eigen::VectorXd>& u) const {
-  detail::Solved S;
-  if (!detail::solve(k_, u, S))
-    throw std::runtime_error("JumpModel::decisionVector: candidate has no valid trajectory");
-  return detail::decisionOf(S);
+  return detail::decisionOf(detail::solvedOrThrow(k_, u, "decisionVector"));
 }
 
 JumpOutcome JumpModel::predictedOutcome(const Eigen::Ref<const Eigen::VectorXd>& u,
@@ -154,11 +169,8 @@ JumpOutcome JumpModel::predictedOutcome(const Eigen::Ref<const Eigen::VectorXd>&
 
 JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
                               const Evaluation* evaluation) const {
-  detail::Solved S;
-  if (!detail::solve(k_, u, S))
-    throw std::runtime_error("JumpModel::buildPlan: candidate has no valid trajectory");
-  JumpPlan plan;
-  detail::fillPlanHeader(S, k_.task, k_.init_input, k_.q_landing, k_.initial, plan);
+  const detail::Solved S = detail::solvedOrThrow(k_, u, "buildPlan");
+  JumpPlan plan = detail::planHeader(k_, S);
   plan.dt = k_.settings.output_dt_s;
   const int N = static_cast<int>(std::ceil(S.t3 / plan.dt - 1e-9)) + 1;
   plan.centroidal.resize(N);
@@ -190,11 +202,8 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
 
 JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
                                const Evaluation* evaluation) const {
-  detail::Solved S;
-  if (!detail::solve(k_, u, S))
-    throw std::runtime_error("JumpModel::buildKnots: candidate has no valid trajectory");
-  JumpPlan plan;
-  detail::fillPlanHeader(S, k_.task, k_.init_input, k_.q_landing, k_.initial, plan);
+  const detail::Solved S = detail::solvedOrThrow(k_, u, "buildKnots");
+  JumpPlan plan = detail::planHeader(k_, S);
   plan.dt = 0.0;
   // Phases and, in flight, the corners of the leg motion (tucked, extending, extended), where
   // the postures' second derivatives jump: a knot sits on each.
