@@ -21,6 +21,7 @@
 #include "sim/statics.h"
 #include "sim/telemetry.h"
 #include "sim/verifier.h"
+#include "viz/knee_figure.h"
 #include "viz/replay_page.h"
 #include "viz/side_view.h"
 
@@ -125,56 +126,6 @@ void plot(const std::filesystem::path& png, const std::filesystem::path& csv,
     throw std::runtime_error("gnuplot failed on " + script.string());
 }
 
-// The paper's backflip figure: the hind knee's (LH_KFE) joint velocity and torque over the
-// take-off, with its limits: the no-load speed, the peak torque and the torque-speed envelope
-// at the measured speed (dashed), and the planned torque. Written as `<png>` by gnuplot.
-void plotKnee(const std::filesystem::path& png, const std::filesystem::path& csv,
-              const pl::JumpPlan& plan, const wj::model::RobotModel& robot) {
-  const int knee = wj::model::jointIndex(Leg::LH, JointKind::KFE);
-  const auto& a = robot.joints()[knee].actuator;
-  const std::filesystem::path planned = png.string() + ".plan.dat";
-  {
-    std::ofstream out(planned);
-    for (int k = 0; k < plan.numSamples() && k * plan.dt <= plan.t2; ++k)
-      out << k * plan.dt << "," << plan.qd(k, knee) << "," << plan.tau(k, knee) << "\n";
-  }
-  // Telemetry columns (1-based): qd_* 38..53, tau_* 54..69, jointIndex order.
-  const int qd_col = 38 + knee, tau_col = 54 + knee;
-  std::ostringstream gp;
-  gp << "set terminal pngcairo size 1100,800 font ',10'\n"
-     << "set output '" << png.string() << "'\n"
-     << "set datafile separator ','\nset key outside right\nset grid\n"
-     << "set xrange [0:" << plan.t2 + 0.05 << "]\n"
-     << "peak = " << a.peak_torque_nm << "\ncorner = " << a.corner_speed_rad_s
-     << "\nnoload = " << a.no_load_speed_rad_s << "\n"
-     << "env(w) = abs(w) <= corner ? peak : (abs(w) >= noload ? 0 : peak * (noload - abs(w)) / "
-        "(noload - corner))\n"
-     << "set multiplot layout 2,1 title 'hind knee (LH\\_KFE) over the take-off: peak "
-     << a.peak_torque_nm << " Nm, no-load " << a.no_load_speed_rad_s << " rad/s'\n"
-     << "set arrow from " << plan.t1 << ", graph 0 to " << plan.t1
-     << ", graph 1 nohead dt 3 lc 'gray'\n"
-     << "set arrow from " << plan.t2 << ", graph 0 to " << plan.t2
-     << ", graph 1 nohead dt 3 lc 'gray'\n"
-     << "set ylabel 'joint velocity [rad/s]'\n"
-     << "plot '" << csv.string() << "' every ::1 using 1:" << qd_col << " w l lw 2 t 'simulated', '"
-     << planned.string()
-     << "' using 1:2 w l dt 4 t 'planned', noload dt 2 lc 'red' t 'no-load speed', -noload dt 2 "
-        "lc 'red' notitle\n"
-     << "set ylabel 'joint torque [Nm]'\nset xlabel 'time [s] (dotted: t1, t2 of the plan)'\n"
-     << "plot '" << csv.string() << "' every ::1 using 1:" << tau_col
-     << " w l lw 2 t 'simulated', '" << planned.string() << "' using 1:3 w l dt 4 t 'planned', '"
-     << csv.string() << "' every ::1 using 1:(env($" << qd_col
-     << ")) w l dt 2 lc 'red' t 'envelope at the speed', '' every ::1 using 1:(-env($" << qd_col
-     << ")) w l dt 2 lc 'red' notitle, peak dt 3 lc 'black' t 'peak torque', -peak dt 3 "
-        "lc 'black' notitle\n"
-     << "unset multiplot\n";
-  const std::filesystem::path script = png.string() + ".gp";
-  std::ofstream(script) << gp.str();
-  const std::string cmd = "gnuplot '" + script.string() + "'";
-  if (std::system(cmd.c_str()) != 0)
-    throw std::runtime_error("gnuplot failed on " + script.string());
-}
-
 // Signed distance of the lowest wheel to the terrain in the plan's predicted touchdown state
 // (CoM and pitch of plan.predicted.touchdown, posture q_landing): 0 if the predicted
 // touchdown is a first wheel contact, negative if the wheels would already be in the ground.
@@ -222,6 +173,17 @@ wj::viz::Recording makeRecording(const std::string& title, const sm::TelemetryRe
         {k * plan.dt, Eigen::Vector3d(plan.centroidal[k].x, 0.0, plan.centroidal[k].z)});
   rec.jump_start_t = 0.0;
   rec.touchdown_t = simulated.touchdown.t > 0.0 ? simulated.touchdown.t : plan.t3;
+  rec.liftoff_t = plan.t2;
+  if (plan.t2 - plan.t1 > plan.dt) rec.front_liftoff_t = plan.t1;
+  for (int k = 0; k < plan.numSamples(); ++k) {
+    wj::viz::PlannedJoints p;
+    p.t = k * plan.dt;
+    for (int j = 0; j < wj::model::kNumJoints; ++j) {
+      p.qd[j] = plan.qd(k, j);
+      p.tau[j] = plan.tau(k, j);
+    }
+    rec.planned_joints.push_back(p);
+  }
   return rec;
 }
 
@@ -260,7 +222,8 @@ int main(int argc, char** argv) {
   app.add_option("--plan-csv", plan_csv_path,
                  "write the plan's dense samples here (t, CoM x z pitch vx vz pitch_rate, q, qd, "
                  "tau in the telemetry's joint order)");
-  app.add_option("--plot", plot_path, "write a PNG figure here (gnuplot)");
+  app.add_option("--plot", plot_path,
+                 "write a PNG figure here (gnuplot; a backflip: the knees over the take-off)");
   app.add_option("--snapshots", pictures.strip,
                  "write a snapshot strip here (PNG: the robot from take-off to landing)");
   app.add_option("--gif", pictures.gif, "write a side-view animation of the run here (GIF)");
@@ -302,16 +265,16 @@ int main(int argc, char** argv) {
       if (!out) throw std::runtime_error("cannot write " + csv_path);
       recorder.writeCsv(out);
     }
-    if (!plot_path.empty()) {
-      if (sc.task.isBackflip())
-        plotKnee(plot_path, csv_path, r.plan, robot);
-      else
+    if (!plot_path.empty() || pictures.any()) {
+      const wj::viz::Recording rec =
+          makeRecording("sim_jump --task " + task, recorder, r.plan, scenario, v.measured);
+      // A backflip's figure is the paper's: the knees over the take-off with their limits.
+      if (sc.task.isBackflip() && !plot_path.empty())
+        wj::viz::writeKneeFigure(robot, rec, plot_path);
+      else if (!plot_path.empty())
         plot(plot_path, csv_path, r.plan, robot);
+      writePictures(pictures, robot, rec);
     }
-    if (pictures.any())
-      writePictures(
-          pictures, robot,
-          makeRecording("sim_jump --task " + task, recorder, r.plan, scenario, v.measured));
 
     const pl::JumpOutcome& p = r.evaluation.predicted;
     const pl::JumpOutcome& s = v.measured;
