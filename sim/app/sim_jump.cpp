@@ -71,6 +71,38 @@ void writePlanCsv(const std::filesystem::path& path, const pl::JumpPlan& plan) {
   }
 }
 
+// Nose-up (about -y) angular momentum of the whole robot about its CoM, Simbody's against the
+// plan's (RobotModel::calcCentralAngularMomentum of the plan's pitch, pitch rate, q and qd) at
+// every telemetry sample inside the plan: where the flight's momentum is won or lost.
+void writeMomentumCsv(const std::filesystem::path& path, const wj::model::RobotModel& robot,
+                      const sm::TelemetryRecorder& recorder, const pl::JumpPlan& plan) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  out << "t,h_sim,h_plan,pitch_rate_sim,pitch_rate_plan\n";
+  out.precision(8);
+  const auto noseUp = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& w,
+                          const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+    return -robot.calcCentralAngularMomentum(R, w, q, qd).y();
+  };
+  Eigen::VectorXd q(wj::model::kNumJoints), qd(wj::model::kNumJoints);
+  for (const sm::TelemetrySample& s : recorder.samples()) {
+    const int k = static_cast<int>(std::lround(s.t / plan.dt));
+    if (k < 0 || k >= plan.numSamples()) continue;
+    for (int j = 0; j < wj::model::kNumJoints; ++j) {
+      q[j] = s.q[j];
+      qd[j] = s.qd[j];
+    }
+    const double h_sim = noseUp(s.q_WB.toRotationMatrix(), s.w_WB, q, qd);
+    const pl::PlanarState& c = plan.centroidal[k];
+    const Eigen::Matrix3d R_plan =
+        Eigen::AngleAxisd(-c.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const double h_plan = noseUp(R_plan, Eigen::Vector3d(0.0, -c.pitch_rate, 0.0),
+                                 plan.q.row(k).transpose(), plan.qd.row(k).transpose());
+    out << s.t << ',' << h_sim << ',' << h_plan << ',' << -s.w_WB.y() << ',' << c.pitch_rate
+        << '\n';
+  }
+}
+
 // Writes the planned CoM height and the figure script, then runs gnuplot.
 void plot(const std::filesystem::path& png, const std::filesystem::path& csv,
           const pl::JumpPlan& plan, const wj::model::RobotModel& robot) {
@@ -222,6 +254,10 @@ int main(int argc, char** argv) {
   app.add_option("--plan-csv", plan_csv_path,
                  "write the plan's dense samples here (t, CoM x z pitch vx vz pitch_rate, q, qd, "
                  "tau in the telemetry's joint order)");
+  std::string momentum_csv_path;
+  app.add_option("--momentum-csv", momentum_csv_path,
+                 "write the angular momentum about the CoM here, Simbody's against the plan's "
+                 "(t, h_sim, h_plan, pitch rates; nose-up positive)");
   app.add_option("--plot", plot_path,
                  "write a PNG figure here (gnuplot; a backflip: the knees over the take-off)");
   app.add_option("--snapshots", pictures.strip,
@@ -259,6 +295,7 @@ int main(int argc, char** argv) {
     sm::TelemetryRecorder recorder;
     const sm::VerificationReport v = verifier.verify(r.plan, scenario, recorder.callback());
     if (!plan_csv_path.empty()) writePlanCsv(plan_csv_path, r.plan);
+    if (!momentum_csv_path.empty()) writeMomentumCsv(momentum_csv_path, robot, recorder, r.plan);
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";
     if (!csv_path.empty()) {
       std::ofstream out(csv_path);
