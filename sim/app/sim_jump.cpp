@@ -18,6 +18,7 @@
 #include "planner/jump_planner.h"
 #include "planner/plan_report.h"
 #include "planner/presets.h"
+#include "robot_model/momentum.h"
 #include "sim/statics.h"
 #include "sim/telemetry.h"
 #include "sim/verifier.h"
@@ -72,7 +73,7 @@ void writePlanCsv(const std::filesystem::path& path, const pl::JumpPlan& plan) {
 }
 
 // Nose-up (about -y) angular momentum of the whole robot about its CoM, Simbody's against the
-// plan's (RobotModel::calcCentralAngularMomentum of the plan's pitch, pitch rate, q and qd) at
+// plan's (model::calcCentralAngularMomentum of the plan's pitch, pitch rate, q and qd) at
 // every telemetry sample inside the plan: where the flight's momentum is won or lost.
 void writeMomentumCsv(const std::filesystem::path& path, const wj::model::RobotModel& robot,
                       const sm::TelemetryRecorder& recorder, const pl::JumpPlan& plan) {
@@ -82,7 +83,7 @@ void writeMomentumCsv(const std::filesystem::path& path, const wj::model::RobotM
   out.precision(8);
   const auto noseUp = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& w,
                           const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
-    return -robot.calcCentralAngularMomentum(R, w, q, qd).y();
+    return -wj::model::calcCentralAngularMomentum(robot, R, w, q, qd).y();
   };
   Eigen::VectorXd q(wj::model::kNumJoints), qd(wj::model::kNumJoints);
   for (const sm::TelemetrySample& s : recorder.samples()) {

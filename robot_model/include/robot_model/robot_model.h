@@ -148,13 +148,6 @@ class RobotModel {
   /// Whole-robot inertia in the base frame at joint positions q: total mass, CoM and the
   /// rotational inertia about that CoM (parallel-axis sum over all links).
   Inertia calcCompositeInertia(const Eigen::VectorXd& q) const;
-  /// Angular momentum of the whole robot about its CoM, in the world frame [kg m^2/s], for
-  /// the base orientation R_WB, its angular velocity w_WB (world frame) and the joints' q and
-  /// qd (jointIndex order). Independent of the base's position and linear velocity. The links'
-  /// velocities relative to the base are central differences of calcLinkPoses along qd.
-  Eigen::Vector3d calcCentralAngularMomentum(const Eigen::Matrix3d& R_WB,
-                                             const Eigen::Vector3d& w_WB, const Eigen::VectorXd& q,
-                                             const Eigen::VectorXd& qd) const;
 
   /// Stable 64-bit content hash of the URDF and actuator files, for cache keys.
   std::uint64_t contentHash() const { return content_hash_; }
