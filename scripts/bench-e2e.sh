@@ -2,7 +2,9 @@
 # Benchmark of the end-to-end forward jump: N sensor-noise seeds of robot_client (simulated
 # robot behind emulated CAN frames) against one planner_server on loopback with an empty cache,
 # then N seeds of the jump onto the 0.25 m platform (simulated robot), then N seeds of the
-# course (two walls 10 m apart, jumped in turn), then the vertical jump.
+# course (two walls 10 m apart, jumped in turn), then the vertical jump, then N seeds of the
+# backflip (from standing, against a second service on the 57 Nm-knee robot of the scenario's
+# actuators_file; docs/backflip.md).
 # Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
 set -euo pipefail
@@ -37,6 +39,15 @@ done
 "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
   --planner "127.0.0.1:${PORT}" --scenario vertical --seed 1 --json "$@" \
   > "$WORK/vertical.json" 2> "$WORK/vertical.log" || true
+# The backflip's robot differs (actuators-57nm.yaml): a service of its own, same port.
+stop_planner_server
+start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_57nm.sqlite" "$WORK/planner_server_57nm.yaml" \
+  "$WORK/server_57nm.log" actuators-57nm.yaml
+for seed in $(seq 1 "$SEEDS"); do
+  "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
+    --planner "127.0.0.1:${PORT}" --scenario backflip --seed "$seed" --json "$@" \
+    > "$WORK/backflip_$seed.json" 2> "$WORK/backflip_$seed.log" || true
+done
 /usr/bin/python3 - "$WORK" "$SEEDS" <<'PY'
 import json, sys, statistics
 work, seeds = sys.argv[1], int(sys.argv[2])
@@ -83,6 +94,24 @@ for s in range(1, seeds + 1):
                    "estimator_position_rms_m": sim.get("estimator_position_rms_m"),
                    "estimator_position_max_m": sim.get("estimator_position_max_m"),
                    "transitions": [t["to"] for t in d.get("transitions", [])]})
+backflip = []
+for s in range(1, seeds + 1):
+    try:
+        d = json.load(open(f"{work}/backflip_{s}.json"))
+    except Exception as e:
+        backflip.append({"seed": s, "error": str(e)}); continue
+    sim = d.get("simulated", {})
+    backflip.append({"seed": s, "success": d["success"], "verdict": d["verdict"],
+                     "actuators_file": d.get("actuators_file"),
+                     "touchdown_rotation_rad": sim.get("touchdown_rotation_rad"),
+                     "final_rotation_rad": sim.get("final_rotation_rad"),
+                     "planned_touchdown_rotation_rad": d["plan"].get("predicted_touchdown_rotation_rad"),
+                     "apex_base_z_m": sim.get("apex_base_z_m"),
+                     "touchdown_dx_m": sim.get("touchdown_dx_m"),
+                     "knee_torque_nm": d["max_torque"]["KFE"]["max_nm"],
+                     "knee_limit_nm": d["max_torque"]["KFE"]["limit_nm"],
+                     "plan_verification": d["plan"]["verification"],
+                     "plan_latency_ms": d["plan"]["latency_ms"]})
 v = json.load(open(f"{work}/vertical.json"))
 lat = [r["plan_latency_ms"] for r in runs if r.get("plan_latency_ms") is not None]
 print(json.dumps({
@@ -100,5 +129,7 @@ print(json.dumps({
     "vertical": {"success": v["success"], "verdict": v["verdict"],
                  "apex_base_z_m": v.get("simulated", {}).get("apex_base_z_m"),
                  "planned_apex_base_z_m": v["plan"]["predicted_apex_base_z_m"],
-                 "paper_hardware_m": 0.5, "paper_target_m": 0.7}}, indent=2))
+                 "paper_hardware_m": 0.5, "paper_target_m": 0.7},
+    "backflip": {"seeds": seeds, "success": sum(1 for r in backflip if r.get("success")),
+                 "target_rotation_rad": 6.283, "runs": backflip}}, indent=2))
 PY
