@@ -154,6 +154,11 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
   e.landing_duration_s = m.number("landing_duration_s");
   e.airborne_debounce_s = m.number("airborne_debounce_s");
   e.max_flight_overrun_s = m.number("max_flight_overrun_s");
+  e.touchdown_pitch_placement = m.number("touchdown_pitch_placement");
+  e.touchdown_placement_max_rad = m.number("touchdown_placement_max_rad");
+  e.touchdown_placement_lead_s = m.number("touchdown_placement_lead_s");
+  e.touchdown_placement_band_up_rad = m.number("touchdown_placement_band_up_rad");
+  e.touchdown_placement_band_down_rad = m.number("touchdown_placement_band_down_rad");
   m.finish();
   return e;
 }
