@@ -58,6 +58,10 @@ void ExecutorSettings::validate() const {
   requireNonNegative(touchdown_placement_lead_s, "touchdown_placement_lead_s");
   requireNonNegative(touchdown_placement_band_up_rad, "touchdown_placement_band_up_rad");
   requireNonNegative(touchdown_placement_band_down_rad, "touchdown_placement_band_down_rad");
+  requireNonNegative(landing_pitch_limit_rad, "landing_pitch_limit_rad");
+  requireNonNegative(landing_pitch_kp, "landing_pitch_kp");
+  requireNonNegative(landing_pitch_kd, "landing_pitch_kd");
+  requireNonNegative(landing_pitch_max_nm, "landing_pitch_max_nm");
 }
 
 std::string checkPlan(const planner::JumpPlan& plan) {
@@ -215,6 +219,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
         }
       }
       addHfeOffset((1.0 - s) * placement_td_, out);
+      addLandingPitchBrake(R_WB * sensors.imu.omega_B, out);
       return;
     }
   }
@@ -249,6 +254,19 @@ double PlanExecutor::calcPlacementOffset(double t) const {
   const double w =
       ramp_end > t_apex_ ? std::clamp((t - t_apex_) / (ramp_end - t_apex_), 0.0, 1.0) : 1.0;
   return w * std::clamp(settings_.touchdown_pitch_placement * error, -max, max);
+}
+
+void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
+                                        model::JointCommands& out) const {
+  const double over = pitch_ - settings_.landing_pitch_limit_rad;  // absolute nose-up pitch
+  if (over <= 0.0 || (settings_.landing_pitch_kp == 0.0 && settings_.landing_pitch_kd == 0.0))
+    return;
+  const double rate = -omega_W.y();  // nose-up positive
+  const double dtau =
+      std::clamp(-(settings_.landing_pitch_kp * over + settings_.landing_pitch_kd * rate),
+                 -settings_.landing_pitch_max_nm, 0.0);
+  for (int leg = 0; leg < model::kNumLegs; ++leg)
+    out[model::jointIndex(static_cast<model::Leg>(leg), model::JointKind::Wheel)].tau_ff += dtau;
 }
 
 void PlanExecutor::addHfeOffset(double offset, model::JointCommands& out) const {

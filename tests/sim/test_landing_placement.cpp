@@ -2,7 +2,9 @@
 // the descent every leg's HFE reference moves by the body's pitch error beyond its band
 // (nose-up error: HFE up, the legs swing back to the plan's angle in the world), ramped in
 // from the plan's apex, clamped; the touchdown's offset is held in the landing and fades with
-// the hand-over blend; off, the legs follow the plan; bad settings are refused by name.
+// the hand-over blend; off, the legs follow the plan. The landing's wheel braking against a
+// wheelie acts beyond its pitch limit only, never forward, clamped. Bad settings are refused
+// by name.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -149,12 +151,55 @@ TEST(LandingPlacement, TouchdownOffsetIsHeldAndFadesWithTheHandover) {
   EXPECT_NEAR(hfe(c, Leg::LH), kHfe, 1e-9);
 }
 
+// The body pitched nose-up by `pitch`, turning nose-up at `rate`.
+model::SensorData pitching(double pitch, double rate) {
+  model::SensorData s = pitched(pitch);
+  s.imu.omega_B = Eigen::Vector3d(0.0, -rate, 0.0);  // about B's y = W's y here
+  return s;
+}
+
+double wheelTau(const model::JointCommands& c, Leg leg) {
+  return c[jointIndex(leg, JointKind::Wheel)].tau_ff;
+}
+
+TEST(LandingPlacement, WheelsBrakeAgainstAWheelieBeyondTheLimitOnly) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  ExecutorSettings s = placement(0.0);
+  s.landing_pitch_limit_rad = 0.4;
+  s.landing_pitch_kp = 40.0;
+  s.landing_pitch_kd = 4.0;
+  s.landing_pitch_max_nm = 8.0;
+  PlanExecutor ex(robot, plan, s, 9.81);
+  model::JointCommands c = flyTo(ex, 0.48, kPlanPitch);
+  ex.update(0.49, pitching(0.35, 1.0), true, c);  // touchdown below the limit: no brake
+  ASSERT_EQ(ex.phase(), JumpPhase::Landing);
+  for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+    EXPECT_DOUBLE_EQ(wheelTau(c, leg), 0.0);
+  ex.update(0.5, pitching(0.45, 0.5), true, c);  // 0.05 beyond, rising at 0.5 rad/s
+  for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+    EXPECT_NEAR(wheelTau(c, leg), -(40.0 * 0.05 + 4.0 * 0.5), 1e-9);
+  ex.update(0.51, pitching(0.7, 3.0), true, c);  // far beyond: clamped
+  EXPECT_NEAR(wheelTau(c, Leg::RH), -8.0, 1e-12);
+  ex.update(0.52, pitching(0.45, -3.0), true, c);  // coming down fast: never a forward torque
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
+
+  PlanExecutor off(robot, plan, placement(0.0), 9.81);  // kp = kd = 0 by default
+  c = flyTo(off, 0.48, kPlanPitch);
+  off.update(0.49, pitching(0.7, 3.0), true, c);
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
+}
+
 TEST(LandingPlacement, SettingsOutOfRangeAreRejectedByName) {
   const model::RobotModel robot = loadRobot();
   const planner::JumpPlan plan = makePlan();
-  const std::string fields[] = {"touchdown_pitch_placement", "touchdown_placement_max_rad",
-                                "touchdown_placement_lead_s", "touchdown_placement_band_up_rad",
-                                "touchdown_placement_band_down_rad"};
+  const std::string fields[] = {"touchdown_pitch_placement",
+                                "touchdown_placement_max_rad",
+                                "touchdown_placement_lead_s",
+                                "touchdown_placement_band_up_rad",
+                                "touchdown_placement_band_down_rad",
+                                "landing_pitch_kp",
+                                "landing_pitch_max_nm"};
   for (const std::string& field : fields) {
     ExecutorSettings s = placement(1.0);
     if (field == "touchdown_pitch_placement") s.touchdown_pitch_placement = 1.5;
@@ -162,6 +207,8 @@ TEST(LandingPlacement, SettingsOutOfRangeAreRejectedByName) {
     if (field == "touchdown_placement_lead_s") s.touchdown_placement_lead_s = std::nan("");
     if (field == "touchdown_placement_band_up_rad") s.touchdown_placement_band_up_rad = -1.0;
     if (field == "touchdown_placement_band_down_rad") s.touchdown_placement_band_down_rad = -1.0;
+    if (field == "landing_pitch_kp") s.landing_pitch_kp = -1.0;
+    if (field == "landing_pitch_max_nm") s.landing_pitch_max_nm = std::nan("");
     try {
       PlanExecutor ex(robot, plan, s, 9.81);
       ADD_FAILURE() << field << " accepted";

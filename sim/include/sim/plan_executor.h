@@ -77,6 +77,16 @@ struct ExecutorSettings {
   /// from moving its legs (docs/robust.md).
   double touchdown_placement_band_up_rad = 0.0;
   double touchdown_placement_band_down_rad = 0.1;  ///< see touchdown_placement_band_up_rad
+  /// Wheel braking against a wheelie in the landing: while the body is nose-up beyond
+  /// landing_pitch_limit_rad every wheel adds -(kp (pitch - limit) + kd pitch_rate), clamped
+  /// to [-landing_pitch_max_nm, 0], to its torque. A braking wheel pitches the body nose-down
+  /// (its reaction, and the ground's braking force below the CoM); a rear-heavy robot (a
+  /// payload behind) otherwise rose on its hind wheels to 0.69 rad after the landing and
+  /// tipped over (docs/robust.md). kp = kd = 0: off.
+  double landing_pitch_limit_rad = 0.4;
+  double landing_pitch_kp = 0.0;      ///< [Nm/rad]
+  double landing_pitch_kd = 0.0;      ///< [Nm s/rad]
+  double landing_pitch_max_nm = 8.0;  ///< [Nm] per wheel
 
   /// Throws std::invalid_argument naming the field when a value is out of range.
   void validate() const;
@@ -134,6 +144,8 @@ class PlanExecutor {
                             model::JointCommands& out) const;
   // The HFE offset of the leg placement for the measured pitch (touchdown_pitch_placement).
   double calcPlacementOffset(double t) const;
+  // Adds the landing's wheel braking against a wheelie to every wheel's torque.
+  void addLandingPitchBrake(const Eigen::Vector3d& omega_W, model::JointCommands& out) const;
   // Adds `offset` to every leg's HFE reference, inside the joint range.
   void addHfeOffset(double offset, model::JointCommands& out) const;
   // Flight references of a plan without flight samples (positions and speeds only).
