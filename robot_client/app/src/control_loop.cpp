@@ -298,8 +298,10 @@ void ControlLoop::step() {
   in.speed = speed_;
   in.roll = roll_;
   in.pitch = pitch_;
+  // A request not posted yet (the worker still finishing the last one) is pending: the last
+  // answer's status is not this request's.
   if (requester_ != nullptr)
-    in.plan = requester_->status();
+    in.plan = pending_request_ ? PlanStatus::Pending : requester_->status();
   else
     in.plan = fsm_.mode() == Mode::Plan ? PlanStatus::Failed : PlanStatus::None;
   const sim::PlanExecutor* ex = executor();
