@@ -63,7 +63,8 @@ RunRecorder::RunRecorder(const model::RobotModel& robot, const ClientSettings& s
       csv_ << "," << what << "_" << robot_.joints()[j].name;
   for (int leg = 0; leg < model::kNumLegs; ++leg)
     csv_ << ",fn_" << model::toString(static_cast<model::Leg>(leg));
-  csv_ << ",compute_us,true_x,true_z,true_vx,true_pitch,true_com_x,true_com_z,true_clearance\n";
+  csv_ << ",compute_us,true_x,true_z,true_vx,true_pitch,true_com_x,true_com_z,true_clearance,"
+          "true_body_contact\n";
 }
 
 void RunRecorder::drain(ControlLoop& loop) {
@@ -90,9 +91,9 @@ void RunRecorder::drain(ControlLoop& loop) {
     for (double f : s.contact_force) csv_ << "," << f;
     csv_ << "," << s.compute_us;
     if (have_truth_row_ && std::abs(truth_row_[0] - s.t) < 1e-9)
-      for (int i = 1; i < 8; ++i) csv_ << "," << truth_row_[i];
+      for (int i = 1; i < 9; ++i) csv_ << "," << truth_row_[i];
     else
-      csv_ << ",,,,,,,";
+      csv_ << ",,,,,,,,";
     csv_ << "\n";
   }
 }
@@ -106,11 +107,10 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
   const Eigen::Vector3d euler = nmpc::calcEulerAngles(R);  // roll, pitch, yaw (ZYX)
   const double roll = euler.x(), pitch = euler.y();
   have_truth_row_ = true;
-  truth_row_ = {
-      t_read,      p.x(),
-      p.z(),       gt.v_WB.x(),
-      pitch,       gt.p_WC.x(),
-      gt.p_WC.z(), std::isfinite(gt.obstacle_clearance_m) ? gt.obstacle_clearance_m : 99.0};
+  truth_row_ = {t_read, p.x(), p.z(), gt.v_WB.x(), pitch, gt.p_WC.x(), gt.p_WC.z(),
+                std::isfinite(gt.obstacle_clearance_m) ? gt.obstacle_clearance_m : 99.0,
+                // 1: the base touches the terrain, 2: a leg link does, 3: both
+                (gt.base_in_contact ? 1.0 : 0.0) + (gt.legs_in_contact ? 2.0 : 0.0)};
   // Unwrapped from the first sample on; an upright robot starts within (-pi, pi].
   truth_pitch_ = sim::calcUnwrappedPitch(R, truth_pitch_);
   if (m == Mode::Takeoff && std::isnan(truth_.takeoff_speed)) {

@@ -114,6 +114,29 @@ TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
   EXPECT_THROW((void)parseClientSettings(fast, "x.yaml"), std::invalid_argument);
 }
 
+TEST(ClientSettings, PlanRetriesAndTheLandingFeedbacksAreReadAndBounded) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  EXPECT_EQ(s.planner.retries, 4);
+  EXPECT_DOUBLE_EQ(s.executor.touchdown_pitch_placement, 1.0);
+  EXPECT_DOUBLE_EQ(s.executor.landing_pitch_limit_rad, 0.4);
+  const std::string many = replace(shippedConfig(), "  retries: 4 ", "  retries: 9 ");
+  try {
+    (void)parseClientSettings(many, "x.yaml");
+    FAIL() << "accepted 9 retries";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("planner.retries"), std::string::npos) << e.what();
+  }
+  const std::string half =
+      replace(shippedConfig(), "touchdown_pitch_placement: 1.0", "touchdown_pitch_placement: 1.5");
+  try {
+    (void)parseClientSettings(half, "x.yaml");
+    FAIL() << "accepted a placement fraction of 1.5";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("touchdown_pitch_placement"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
   EXPECT_TRUE(s.scenario("platform").landsOnWall());

@@ -129,7 +129,7 @@ class RunRecorder {
   std::vector<Transition> transitions_;
   TruthMetrics truth_;
   bool have_truth_row_ = false;
-  std::array<double, 8> truth_row_{};  // t, x, z, vx, pitch, com_x, com_z, clearance
+  std::array<double, 9> truth_row_{};  // t, x, z, vx, pitch, com_x, com_z, clearance, contact
   double takeoff_truth_x_ = std::numeric_limits<double>::quiet_NaN();
   double truth_pitch_ = 0.0;  // unwrapped true pitch [rad]
   double takeoff_truth_pitch_ = std::numeric_limits<double>::quiet_NaN();
