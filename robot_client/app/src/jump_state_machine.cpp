@@ -51,7 +51,7 @@ std::string_view toString(Reason reason) {
     case Reason::NoPlanByDecisionPoint:
       return "no plan by the decision point";
     case Reason::PlanInfeasible:
-      return "plan infeasible";
+      return "no usable plan (infeasible, or refused by the service's verification)";
     case Reason::PlannerFailed:
       return "planner unreachable or failed";
     case Reason::PlanRetry:
