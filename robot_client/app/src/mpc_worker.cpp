@@ -59,8 +59,11 @@ void MpcWorker::cycle(const MpcInput& in) {
   const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   cycles_.fetch_add(1, std::memory_order_relaxed);
-  if (status == nmpc::SqpStatus::IterationLimit)
-    not_converged_.fetch_add(1, std::memory_order_relaxed);
+  if (status == nmpc::SqpStatus::LineSearchFailed || status == nmpc::SqpStatus::RiccatiFailed)
+    failed_.fetch_add(1, std::memory_order_relaxed);
+  const double violation = controller_.solver().stats().violation;
+  if (violation > max_violation_.load(std::memory_order_relaxed))
+    max_violation_.store(violation, std::memory_order_relaxed);
   last_ms_.store(ms, std::memory_order_relaxed);
   if (ms > max_ms_.load(std::memory_order_relaxed)) max_ms_.store(ms, std::memory_order_relaxed);
 }
@@ -97,7 +100,14 @@ void MpcWorker::run() {
 }
 
 MpcCounters MpcWorker::counters() const {
-  return {cycles_.load(), not_converged_.load(), last_ms_.load(), max_ms_.load()};
+  MpcCounters c;
+  c.cycles = cycles_.load();
+  c.iterations_per_cycle = controller_.solver().settings().max_iterations;
+  c.failed = failed_.load();
+  c.max_violation = max_violation_.load();
+  c.last_ms = last_ms_.load();
+  c.max_ms = max_ms_.load();
+  return c;
 }
 
 }  // namespace wj::robot_client

@@ -32,6 +32,14 @@ std::string fmt(double v, int precision = 3) {
   return s.str();
 }
 
+// v in scientific notation (residuals span many decades).
+std::string fmtSci(double v) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << std::scientific << std::setprecision(1) << v;
+  return s.str();
+}
+
 // A frame from the estimate (hardware: no ground truth). Yaw is not estimated: zero.
 viz::Frame estimatedFrame(const model::RobotModel& robot, const TelemetrySample& s) {
   viz::Frame f;
@@ -135,6 +143,10 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
   }
   if (m == Mode::Roll && loop.stateMachine().rolledOn()) truth_.roll_on_speed = gt.v_WB.x();
   truth_.min_clearance = std::min(truth_.min_clearance, gt.obstacle_clearance_m);
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    double& peak = truth_.max_applied_torque[static_cast<std::size_t>(j % model::kJointsPerLeg)];
+    peak = std::max(peak, std::abs(gt.tau[j]));
+  }
   if (m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing) {
     const auto jump = static_cast<std::size_t>(loop.stateMachine().landings());
     if (truth_.jump_clearance.size() <= jump)
@@ -212,9 +224,15 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
       s.planned_touchdown_rotation = info.predicted.touchdown.state.pitch;
     }
   }
+  // The peak torques: applied by the simulated drives when the run has a ground truth (the
+  // torque sensor adds noise: its reading may exceed the limit the drive saturates at), else
+  // measured by the drives.
+  s.max_torque_source = truth_.available ? "applied" : "measured";
   for (int j = 0; j < model::kNumJoints; ++j) {
     const int kind = j % model::kJointsPerLeg;
-    s.max_torque[kind] = std::max(s.max_torque[kind], loop.maxAbsTorque()[j]);
+    const double peak = truth_.available ? truth_.max_applied_torque[static_cast<std::size_t>(kind)]
+                                         : loop.maxAbsTorque()[j];
+    s.max_torque[kind] = std::max(s.max_torque[kind], peak);
     s.torque_limit[kind] = robot_.joints()[j].actuator.peak_torque_nm;
   }
   s.actuators_file = scenario_.actuators_file;
@@ -339,6 +357,7 @@ nlohmann::json RunSummary::toJson() const {
   for (int k = 0; k < model::kJointsPerLeg; ++k)
     torques[kKindNames[k]] = {{"max_nm", max_torque[k]}, {"limit_nm", torque_limit[k]}};
   j["max_torque"] = torques;
+  j["max_torque_source"] = max_torque_source;
   nlohmann::json trs = nlohmann::json::array();
   for (const Transition& t : transitions)
     trs.push_back({{"t", t.t},
@@ -348,7 +367,11 @@ nlohmann::json RunSummary::toJson() const {
                    {"com_x", t.com_x},
                    {"speed", t.speed}});
   j["transitions"] = trs;
-  j["mpc"] = {{"cycles", mpc.cycles}, {"not_converged", mpc.not_converged}, {"max_ms", mpc.max_ms}};
+  j["mpc"] = {{"cycles", mpc.cycles},
+              {"iterations_per_cycle", mpc.iterations_per_cycle},
+              {"failed", mpc.failed},
+              {"max_violation", mpc.max_violation},
+              {"max_ms", mpc.max_ms}};
   j["sim_time_s"] = sim_time_s;
   j["wall_s"] = wall_s;
   if (!loop_stats.is_null()) j["loop"] = loop_stats;
@@ -388,7 +411,7 @@ void RunSummary::printTable(std::ostream& out) const {
         << "\n";
   const int kfe = static_cast<int>(model::JointKind::KFE);
   out << "  robot " << actuators_file << ": knee peak torque " << fmt(max_torque[kfe], 1)
-      << " of its " << fmt(torque_limit[kfe], 0) << " Nm limit\n";
+      << " of its " << fmt(torque_limit[kfe], 0) << " Nm limit (" << max_torque_source << ")\n";
   out << "  max |torque| per joint kind (limit):";
   for (int k = 0; k < model::kJointsPerLeg; ++k)
     out << "  " << kKindNames[k] << " " << fmt(max_torque[k], 1) << "/" << fmt(torque_limit[k], 0);
@@ -396,8 +419,10 @@ void RunSummary::printTable(std::ostream& out) const {
   if (truth.available)
     out << "  estimator error vs truth (RMS): position " << fmt(truth.est_pos_rms)
         << " m, velocity " << fmt(truth.est_vel_rms) << " m/s\n";
-  out << "  NMPC cycles " << mpc.cycles << " (" << mpc.not_converged << " at the iteration limit), "
-      << fmt(sim_time_s, 2) << " s robot time in " << fmt(wall_s, 1) << " s wall\n";
+  out << "  NMPC cycles " << mpc.cycles << " (" << mpc.iterations_per_cycle
+      << " SQP iteration(s) each; " << mpc.failed << " failed; largest residual "
+      << fmtSci(mpc.max_violation) << "), " << fmt(sim_time_s, 2) << " s robot time in "
+      << fmt(wall_s, 1) << " s wall\n";
   if (!can_report.empty()) out << "  CAN: " << can_report << "\n";
   out << "  transitions:";
   for (const Transition& t : transitions) out << " " << toString(t.to) << "@" << fmt(t.t, 2);

@@ -116,7 +116,12 @@ else:
         check(abs(sim["roll_on_speed_m_s"] - 3.0) < 0.17,
               f"rolled on at {sim['roll_on_speed_m_s']} m/s, not 3 m/s")
         check(d["final_mode"] == "STAND", d["final_mode"])
+    # The simulated drives saturate at their limit: the applied torque never exceeds it (the
+    # torque sensor's noisy reading may; the summary reports the applied torque in simulation).
+    check(d["max_torque_source"] == "applied", d["max_torque_source"])
     for kind, t in d["max_torque"].items():
-        check(t["max_nm"] <= t["limit_nm"] * 1.02, f"{kind} torque {t['max_nm']} beyond {t['limit_nm']}")
+        check(t["max_nm"] <= t["limit_nm"] + 1e-9, f"{kind} torque {t['max_nm']} beyond {t['limit_nm']}")
+    check(d["mpc"]["iterations_per_cycle"] >= 1 and d["mpc"]["failed"] == 0,
+          f"NMPC cycles failed: {d['mpc']}")
 print("OK", case)
 PY

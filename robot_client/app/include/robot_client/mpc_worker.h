@@ -30,7 +30,12 @@ struct MpcInput {
 /// Counters of the NMPC thread.
 struct MpcCounters {
   std::uint64_t cycles = 0;
-  std::uint64_t not_converged = 0;  ///< cycles whose SQP hit its iteration limit
+  /// SQP iterations per cycle (1: a real-time iteration, which ends at its iteration limit
+  /// by design; convergence is not its test).
+  int iterations_per_cycle = 1;
+  /// Cycles whose SQP step failed (line search or Riccati): the previous solution was kept.
+  std::uint64_t failed = 0;
+  double max_violation = 0.0;  ///< largest dynamics/equality residual after a cycle
   double last_ms = 0.0;
   double max_ms = 0.0;
 };
@@ -64,8 +69,8 @@ class MpcWorker {
   std::atomic<bool> stop_{false};
   std::uint32_t applied_command_ = 0;
   bool was_active_ = false;
-  std::atomic<std::uint64_t> cycles_{0}, not_converged_{0};
-  std::atomic<double> last_ms_{0.0}, max_ms_{0.0};
+  std::atomic<std::uint64_t> cycles_{0}, failed_{0};
+  std::atomic<double> last_ms_{0.0}, max_ms_{0.0}, max_violation_{0.0};
   std::thread thread_;
 };
 

@@ -52,6 +52,9 @@ struct TruthMetrics {
   double final_pitch = 0.0, final_roll = 0.0, final_speed = 0.0, final_height = 0.0;
   double est_pos_rms = 0.0, est_vel_rms = 0.0;  ///< estimator error vs truth (RMS)
   double est_pos_max = 0.0;                     ///< largest position error over the run [m]
+  /// Largest |torque| the simulated drives applied, per joint kind (HAA, HFE, KFE, WHEEL) [Nm]:
+  /// the saturated drive torque, without the torque sensor's noise.
+  std::array<double, model::kJointsPerLeg> max_applied_torque{};
   /// Per jump (a course has several): the smallest wall clearance from its take-off to the
   /// end of its landing [m].
   std::vector<double> jump_clearance;
@@ -80,6 +83,7 @@ struct RunSummary {
   std::string actuators_file;  ///< the robot's actuator file (scenario's actuators_file)
   TruthMetrics truth;
   std::array<double, model::kJointsPerLeg> max_torque{};  ///< per joint kind [Nm]
+  std::string max_torque_source;  ///< "applied" (simulated drives) or "measured" (sensors)
   std::array<double, model::kJointsPerLeg> torque_limit{};
   std::vector<Transition> transitions;
   MpcCounters mpc;
