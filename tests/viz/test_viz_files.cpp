@@ -37,6 +37,70 @@ TEST(VizFiles, StripIsAWholePng) {
   EXPECT_LT(std::filesystem::file_size(png), 600u * 1024u);
 }
 
+// Two synthetic jumps one after the other, each over its own wall, as the course scenario runs
+// them: the second is the first shifted by 1.5 s and by the distance rolled meanwhile.
+Recording twoJumps() {
+  const testing::SyntheticJump spec;
+  Recording rec = testing::makeSyntheticJump(robot(), spec);
+  const Recording first = rec;
+  const double dt = spec.t_end + spec.dt, dx = spec.vx * dt;
+  const auto shifted = [&](const Eigen::Vector3d& p) -> Eigen::Vector3d {
+    return p + Eigen::Vector3d(dx, 0.0, 0.0);
+  };
+  JumpSpan one{first.jump_start_t, first.touchdown_t, first.planned_com};
+  JumpSpan two{first.jump_start_t + dt, first.touchdown_t + dt, {}};
+  for (Frame f : first.frames) {
+    f.t += dt;
+    f.p_WB = shifted(f.p_WB);
+    f.p_WC = shifted(f.p_WC);
+    rec.frames.push_back(std::move(f));
+  }
+  for (const PathPoint& p : first.planned_com) two.planned_com.push_back({p.t + dt, shifted(p.p)});
+  for (const SceneBox& b : first.boxes) rec.boxes.push_back({shifted(b.min), shifted(b.max)});
+  rec.jump_start_t = two.start_t;
+  rec.touchdown_t = two.touchdown_t;
+  rec.planned_com = two.planned_com;
+  rec.jumps = {one, two};
+  return rec;
+}
+
+// The x range of every row in a strip's gnuplot script, in order.
+std::vector<std::pair<double, double>> xRanges(const std::filesystem::path& script) {
+  std::ifstream in(script);
+  std::vector<std::pair<double, double>> ranges;
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("set xrange [", 0) == 0) {
+      const auto colon = line.find(':');
+      ranges.emplace_back(std::stod(line.substr(12, colon - 12)),
+                          std::stod(line.substr(colon + 1)));
+    }
+  return ranges;
+}
+
+TEST(VizFiles, StripOfSeveralJumpsHasARowPerJump) {
+  const Recording rec = twoJumps();
+  const auto one = outDir() / "strip_one.png", both = outDir() / "strip_two.png";
+  Recording last = rec;
+  last.jumps.clear();  // the single-jump fields alone: the last jump
+  writeSnapshotStrip(robot(), last, one);
+  writeSnapshotStrip(robot(), rec, both);
+  const int h1 = testing::readPngInfo(testing::readBytes(one)).height;
+  const int h2 = testing::readPngInfo(testing::readBytes(both)).height;
+  EXPECT_NEAR(h2, 2 * h1, 2);
+  // Row k shows jump k's wall and not the other's.
+  const auto rows = xRanges(both.string() + ".gp");
+  ASSERT_EQ(rows.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const SceneBox& wall = rec.boxes[k];
+    const SceneBox& other = rec.boxes[1 - k];
+    EXPECT_LT(rows[k].first, wall.min.x());
+    EXPECT_GT(rows[k].second, wall.max.x());
+    EXPECT_FALSE(rows[k].first < other.min.x() && rows[k].second > other.max.x());
+  }
+  EXPECT_EQ(xRanges(one.string() + ".gp").size(), 1u);
+}
+
 // The synthetic jump with the hind knees extending at 30 rad/s over the last 0.1 s of the push
 // (the front ones at rest), a plan of its own and a lift-off at 0.4 s.
 Recording kneeJump() {

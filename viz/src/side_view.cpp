@@ -126,6 +126,120 @@ std::pair<double, double> jumpWindow(const Recording& rec, double tail) {
   return {a, b};
 }
 
+// The frames of one jump's row: evenly spaced from its take-off to its touchdown + tail, its
+// apex, and the spread of a jump in place.
+StripLayout planRow(const model::RobotModel& robot, const Recording& rec, const JumpSpan& jump,
+                    const StripSettings& settings) {
+  const double t0 = rec.frames.front().t, tn = rec.frames.back().t;
+  const double a = std::isfinite(jump.start_t) ? std::clamp(jump.start_t, t0, tn) : t0;
+  const double b = std::isfinite(jump.touchdown_t)
+                       ? std::clamp(jump.touchdown_t + settings.landing_tail_s, a, tn)
+                       : tn;
+  StripLayout layout;
+  for (int k = 0; k < settings.snapshots; ++k) {
+    const int i = rec.frameAt(a + (b - a) * k / (settings.snapshots - 1));
+    if (layout.frames.empty() || layout.frames.back() != i) layout.frames.push_back(i);
+  }
+  // The highest CoM between take-off and touchdown (the whole row without a touchdown).
+  const int first = rec.frameAt(a);
+  const int last = std::isfinite(jump.touchdown_t) ? rec.frameAt(jump.touchdown_t)
+                                                   : static_cast<int>(rec.frames.size()) - 1;
+  layout.apex = first;
+  for (int i = first; i <= last; ++i)
+    if (rec.frames[i].p_WC.z() > rec.frames[layout.apex].p_WC.z()) layout.apex = i;
+  // A jump in place: every snapshot on top of the others. Spread them like a film strip.
+  const double travel =
+      rec.frames[layout.frames.back()].p_WB.x() - rec.frames[layout.frames.front()].p_WB.x();
+  const double length = robotLength(robot);
+  const int n = static_cast<int>(layout.frames.size());
+  if (n > 1 && std::abs(travel) < settings.spread_below * length)
+    layout.spread_m = 1.15 * length - travel / (n - 1);
+  return layout;
+}
+
+// The gnuplot commands of one row of the strip (its objects, ranges, title and plot) and the
+// row's height in pixels. `tag` names the row's datablocks, unique within a script.
+struct RowScript {
+  std::string text;
+  int height_px = 0;
+};
+RowScript stripRow(const model::RobotModel& robot, const Recording& rec, const JumpSpan& jump,
+                   const StripSettings& settings, const std::string& heading,
+                   const std::string& tag_suffix) {
+  const StripLayout layout = planRow(robot, rec, jump, settings);
+  const int n = static_cast<int>(layout.frames.size());
+  const double t0 = rec.frames[layout.frames.front()].t;
+  const double t1 = rec.frames[layout.frames.back()].t;
+  const double dt_snap = n > 1 ? (t1 - t0) / (n - 1) : 1.0;
+  // x shift of anything at time t (0 unless the snapshots are spread).
+  const auto shift = [&](double t) { return layout.spread_m * (t - t0) / dt_snap; };
+
+  std::ostringstream objects;
+  int tag = 100;  // terrain gets 1..99, drawn first
+  Bounds bounds;
+  for (int k = 0; k < n; ++k) {
+    const Frame& f = rec.frames[layout.frames[k]];
+    drawRobot(objects, tag, robot, f, shift(f.t), {timeColour(k, n), 0.18, 1.2, true}, bounds);
+  }
+  const Frame& apex = rec.frames[layout.apex];
+  drawRobot(objects, tag, robot, apex, shift(apex.t), {"#101010", 0.45, 2.5, true}, bounds);
+
+  std::ostringstream sim, plan;
+  for (std::size_t i = 0; i < rec.frames.size(); ++i) {
+    const Frame& f = rec.frames[i];
+    if (f.t < t0 || f.t > t1) continue;
+    sim << fixed(f.p_WC.x() + shift(f.t), 4) << " " << fixed(f.p_WC.z(), 4) << "\n";
+    bounds.add(f.p_WC.x() + shift(f.t), f.p_WC.z());
+  }
+  for (const PathPoint& p : jump.planned_com) {
+    if (p.t < t0 || p.t > t1) continue;
+    plan << fixed(p.p.x() + shift(p.t), 4) << " " << fixed(p.p.z(), 4) << "\n";
+    bounds.add(p.p.x() + shift(p.t), p.p.z());
+  }
+  for (const SceneBox& b : rec.boxes)
+    if (b.max.x() > bounds.x_min - 0.5 && b.min.x() < bounds.x_max + 0.5)
+      bounds.add(std::clamp(b.max.x(), bounds.x_min - 0.3, bounds.x_max + 0.3), b.max.z());
+  bounds.add(bounds.x_min, -0.06);
+  const double margin = 0.08;
+  const double xspan = bounds.x_max - bounds.x_min + 2 * margin;
+  const double zspan = bounds.z_max - bounds.z_min + 2 * margin;
+  RowScript out;
+  out.height_px = std::clamp(static_cast<int>(settings.width_px * zspan / xspan) + 170, 320, 1400);
+
+  const std::string sim_block = "$sim" + tag_suffix, plan_block = "$plan" + tag_suffix;
+  std::ostringstream gp;
+  std::ostringstream title;
+  title << heading << "\n"
+        << n << " snapshots every " << fixed(dt_snap, 3)
+        << " s (blue to red) from the take-off, t = " << fixed(t0, 2)
+        << " s, to after the landing, t = " << fixed(t1, 2)
+        << " s; black: the apex, t = " << fixed(apex.t, 2) << " s";
+  if (layout.spread_m > 0.0)
+    title << "\na jump in place: snapshots spread apart by " << fixed(layout.spread_m, 2)
+          << " m each along x (x not to scale between snapshots)";
+  gp << "set title " << quoted(title.str()) << "\n"
+     << "set size ratio -1\nset grid\nset key top left opaque box\n"
+     << "set xlabel 'x [m]'\nset ylabel 'z [m]'\n"
+     << "set xrange [" << fixed(bounds.x_min - margin, 3) << ":" << fixed(bounds.x_max + margin, 3)
+     << "]\nset yrange [" << fixed(bounds.z_min - margin, 3) << ":"
+     << fixed(bounds.z_max + margin, 3) << "]\n";
+  int terrain_tag = 1;
+  drawTerrain(gp, terrain_tag, rec, bounds);
+  gp << objects.str();
+  // Datablocks before the plot command.
+  gp << sim_block << " << EOD\n" << sim.str() << "EOD\n";
+  const bool planned = !plan.str().empty();
+  if (planned) gp << plan_block << " << EOD\n" << plan.str() << "EOD\n";
+  gp << "plot " << sim_block << " using 1:2 with lines lw 2.5 lc rgb '#000000' title "
+     << quoted(rec.source + " CoM");
+  if (planned)
+    gp << ", " << plan_block
+       << " using 1:2 with lines dt 2 lw 2.5 lc rgb '#e0301e' title 'planned CoM'";
+  gp << "\n";
+  out.text = gp.str();
+  return out;
+}
+
 }  // namespace
 
 void StripSettings::validate() const {
@@ -156,101 +270,37 @@ StripLayout planStrip(const model::RobotModel& robot, const Recording& rec,
                       const StripSettings& settings) {
   settings.validate();
   rec.validate();
-  const auto [a, b] = jumpWindow(rec, settings.landing_tail_s);
-  StripLayout layout;
-  for (int k = 0; k < settings.snapshots; ++k) {
-    const int i = rec.frameAt(a + (b - a) * k / (settings.snapshots - 1));
-    if (layout.frames.empty() || layout.frames.back() != i) layout.frames.push_back(i);
-  }
-  layout.apex = rec.apexFrame();
-  // A jump in place: every snapshot on top of the others. Spread them like a film strip.
-  const double travel =
-      rec.frames[layout.frames.back()].p_WB.x() - rec.frames[layout.frames.front()].p_WB.x();
-  const double length = robotLength(robot);
-  const int n = static_cast<int>(layout.frames.size());
-  if (n > 1 && std::abs(travel) < settings.spread_below * length)
-    layout.spread_m = 1.15 * length - travel / (n - 1);
-  return layout;
+  return planRow(robot, rec, {rec.jump_start_t, rec.touchdown_t, {}}, settings);
 }
 
 void writeSnapshotStrip(const model::RobotModel& robot, const Recording& rec,
                         const std::filesystem::path& png, const StripSettings& settings) {
-  const StripLayout layout = planStrip(robot, rec, settings);
-  const int n = static_cast<int>(layout.frames.size());
-  const double t0 = rec.frames[layout.frames.front()].t;
-  const double t1 = rec.frames[layout.frames.back()].t;
-  const double dt_snap = n > 1 ? (t1 - t0) / (n - 1) : 1.0;
-  // x shift of anything at time t (0 unless the snapshots are spread).
-  const auto shift = [&](double t) { return layout.spread_m * (t - t0) / dt_snap; };
-
-  std::ostringstream objects;
-  int tag = 100;  // terrain gets 1..99, drawn first
-  Bounds bounds;
-  for (int k = 0; k < n; ++k) {
-    const Frame& f = rec.frames[layout.frames[k]];
-    drawRobot(objects, tag, robot, f, shift(f.t), {timeColour(k, n), 0.18, 1.2, true}, bounds);
+  settings.validate();
+  rec.validate();
+  // One row per jump: a run with several (the course) would otherwise show only its last.
+  std::vector<RowScript> rows;
+  if (rec.jumps.size() < 2) {
+    JumpSpan only{rec.jump_start_t, rec.touchdown_t, rec.planned_com};
+    rows.push_back(stripRow(robot, rec, only, settings, rec.title, ""));
+  } else {
+    const int n = static_cast<int>(rec.jumps.size());
+    for (int i = 0; i < n; ++i)
+      rows.push_back(
+          stripRow(robot, rec, rec.jumps[static_cast<std::size_t>(i)], settings,
+                   rec.title + ", jump " + std::to_string(i + 1) + " of " + std::to_string(n),
+                   std::to_string(i)));
   }
-  const Frame& apex = rec.frames[layout.apex];
-  drawRobot(objects, tag, robot, apex, shift(apex.t), {"#101010", 0.45, 2.5, true}, bounds);
-
-  std::ostringstream sim, plan;
-  for (std::size_t i = 0; i < rec.frames.size(); ++i) {
-    const Frame& f = rec.frames[i];
-    if (f.t < t0 || f.t > t1) continue;
-    sim << fixed(f.p_WC.x() + shift(f.t), 4) << " " << fixed(f.p_WC.z(), 4) << "\n";
-    bounds.add(f.p_WC.x() + shift(f.t), f.p_WC.z());
-  }
-  for (const PathPoint& p : rec.planned_com) {
-    if (p.t < t0 || p.t > t1) continue;
-    plan << fixed(p.p.x() + shift(p.t), 4) << " " << fixed(p.p.z(), 4) << "\n";
-    bounds.add(p.p.x() + shift(p.t), p.p.z());
-  }
-  for (const SceneBox& b : rec.boxes)
-    if (b.max.x() > bounds.x_min - 0.5 && b.min.x() < bounds.x_max + 0.5)
-      bounds.add(std::clamp(b.max.x(), bounds.x_min - 0.3, bounds.x_max + 0.3), b.max.z());
-  bounds.add(bounds.x_min, -0.06);
-  const double margin = 0.08;
-  const double xspan = bounds.x_max - bounds.x_min + 2 * margin;
-  const double zspan = bounds.z_max - bounds.z_min + 2 * margin;
-  const int height =
-      std::clamp(static_cast<int>(settings.width_px * zspan / xspan) + 170, 320, 1400);
-
+  int height = 0;
+  for (const RowScript& r : rows) height += r.height_px;
   std::ostringstream gp;
   gp << "set terminal pngcairo size " << settings.width_px << "," << height
      << " font ',11' noenhanced\n"
      << "set output " << quoted(png.string()) << "\n";
-  std::ostringstream title;
-  title << rec.title << "\n"
-        << n << " snapshots every " << fixed(dt_snap, 3)
-        << " s (blue to red) from the take-off, t = " << fixed(t0, 2)
-        << " s, to after the landing, t = " << fixed(t1, 2)
-        << " s; black: the apex, t = " << fixed(apex.t, 2) << " s";
-  if (layout.spread_m > 0.0)
-    title << "\na jump in place: snapshots spread apart by " << fixed(layout.spread_m, 2)
-          << " m each along x (x not to scale between snapshots)";
-  gp << "set title " << quoted(title.str()) << "\n"
-     << "set size ratio -1\nset grid\nset key top left opaque box\n"
-     << "set xlabel 'x [m]'\nset ylabel 'z [m]'\n"
-     << "set xrange [" << fixed(bounds.x_min - margin, 3) << ":" << fixed(bounds.x_max + margin, 3)
-     << "]\nset yrange [" << fixed(bounds.z_min - margin, 3) << ":"
-     << fixed(bounds.z_max + margin, 3) << "]\n";
-  int terrain_tag = 1;
-  drawTerrain(gp, terrain_tag, rec, bounds);
-  gp << objects.str();
-  gp << "$sim << EOD\n" << sim.str() << "EOD\n";
-  gp << "plot $sim using 1:2 with lines lw 2.5 lc rgb '#000000' title "
-     << quoted(rec.source + " CoM");
-  const bool planned = !plan.str().empty();
-  if (planned)
-    gp << ", $plan using 1:2 with lines dt 2 lw 2.5 lc rgb '#e0301e' title 'planned CoM'";
-  gp << "\n";
-  std::string text = gp.str();
-  if (planned) {  // datablocks must come before the plot command
-    const auto at = text.find("plot $sim");
-    text.insert(at, "$plan << EOD\n" + plan.str() + "EOD\n");
-  }
+  if (rows.size() > 1) gp << "set multiplot layout " << rows.size() << ",1\n";
+  for (const RowScript& r : rows) gp << "unset object\nunset arrow\n" << r.text;
+  if (rows.size() > 1) gp << "unset multiplot\n";
   const std::filesystem::path script = png.string() + ".gp";
-  writeScript(script, text);
+  writeScript(script, gp.str());
   runGnuplot(script, png);
 }
 

@@ -156,6 +156,7 @@ int run(const Options& opt) {
     if (simulated) {
       backend->observe(loop, recorder);
       recorder.drain(loop);
+      recorder.notePlan(requester.get());
       // Paced to the wall clock, so that the planning service's latency counts as on the
       // robot (--fast: as fast as the machine goes; a cold plan then seems slower).
       if (!opt.fast) timer.waitNext();

@@ -86,8 +86,7 @@ void RunRecorder::drain(ControlLoop& loop) {
   while (loop.telemetry().tryPop(s)) {
     if (keep_frames_ && !truth_.available && (frames_.empty() || s.t > frames_.back().t)) {
       frames_.push_back(estimatedFrame(robot_, s));
-      if (s.mode == Mode::Takeoff && std::isnan(frames_takeoff_com_x_))
-        frames_takeoff_com_x_ = frames_.back().p_WC.x();
+      noteFrame(s.mode, s.t, frames_.back().p_WC.x());
     }
     if (!csv_.is_open()) continue;
     csv_ << s.t << "," << toString(s.mode);
@@ -166,8 +165,7 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
     f.p_WC = gt.p_WC;
     f.phase = std::string(toString(m));
     frames_.push_back(std::move(f));
-    if (m == Mode::Takeoff && std::isnan(frames_takeoff_com_x_))
-      frames_takeoff_com_x_ = gt.p_WC.x();
+    noteFrame(m, t_read, gt.p_WC.x());
   }
   truth_.body_hit_ground = truth_.body_hit_ground || gt.base_in_contact || gt.legs_in_contact;
   truth_.final_x = p.x();
@@ -429,6 +427,30 @@ void RunSummary::printTable(std::ostream& out) const {
   out << "\n  verdict: " << verdict << (success ? " -> SUCCESS" : " -> FAILED") << "\n";
 }
 
+void RunRecorder::noteFrame(Mode m, double t, double com_x) {
+  if (m == Mode::Takeoff && last_frame_mode_ != Mode::Takeoff) jumps_.push_back({t, com_x, {}});
+  last_frame_mode_ = m;
+}
+
+std::vector<viz::PathPoint> RunRecorder::plannedPath(const planner::JumpPlan& plan,
+                                                     const JumpTrace& jump) const {
+  // The plan is in its jump frame: x from the CoM at the start of take-off, z from the ground.
+  std::vector<viz::PathPoint> path;
+  path.reserve(static_cast<std::size_t>(plan.numSamples()));
+  for (int k = 0; k < plan.numSamples(); ++k)
+    path.push_back(
+        {jump.takeoff_t + k * plan.dt,
+         Eigen::Vector3d(jump.takeoff_com_x + plan.centroidal[k].x, 0.0, plan.centroidal[k].z)});
+  return path;
+}
+
+void RunRecorder::notePlan(const PlanRequester* requester) {
+  if (jumps_.empty() || !jumps_.back().planned_com.empty() || requester == nullptr ||
+      requester->status() != PlanStatus::Feasible)
+    return;
+  jumps_.back().planned_com = plannedPath(requester->plan(), jumps_.back());
+}
+
 viz::Recording RunRecorder::recording(const ControlLoop& loop,
                                       const PlanRequester* requester) const {
   viz::Recording rec;
@@ -449,15 +471,25 @@ viz::Recording RunRecorder::recording(const ControlLoop& loop,
         break;
       }
   }
-  // The plan is in its jump frame: x from the CoM at the start of take-off, z from the ground.
-  if (requester != nullptr && requester->status() == PlanStatus::Feasible &&
-      std::isfinite(takeoff) && std::isfinite(frames_takeoff_com_x_)) {
-    const planner::JumpPlan& plan = requester->plan();
-    for (int k = 0; k < plan.numSamples(); ++k)
-      rec.planned_com.push_back(
-          {takeoff + k * plan.dt, Eigen::Vector3d(frames_takeoff_com_x_ + plan.centroidal[k].x, 0.0,
-                                                  plan.centroidal[k].z)});
+  // The last jump's plan (the requester's), and every jump's own when there are several.
+  if (!jumps_.empty()) {
+    rec.planned_com = jumps_.back().planned_com;
+    if (rec.planned_com.empty() && requester != nullptr &&
+        requester->status() == PlanStatus::Feasible)
+      rec.planned_com = plannedPath(requester->plan(), jumps_.back());
   }
+  if (jumps_.size() > 1)
+    for (const JumpTrace& j : jumps_) {
+      viz::JumpSpan span;
+      span.start_t = j.takeoff_t;
+      for (const Transition& tr : transitions_)
+        if (tr.to == Mode::Landing && tr.t >= j.takeoff_t) {
+          span.touchdown_t = tr.t;
+          break;
+        }
+      span.planned_com = &j == &jumps_.back() ? rec.planned_com : j.planned_com;
+      rec.jumps.push_back(std::move(span));
+    }
   if (requester != nullptr && requester->status() == PlanStatus::Feasible &&
       std::isfinite(takeoff)) {
     const planner::JumpPlan& plan = requester->plan();

@@ -45,6 +45,13 @@ struct PlannedJoints {
   std::array<double, model::kNumJoints> tau{};  ///< [Nm]
 };
 
+/// One jump of a run that has several (the course).
+struct JumpSpan {
+  double start_t = std::numeric_limits<double>::quiet_NaN();      ///< start of the take-off [s]
+  double touchdown_t = std::numeric_limits<double>::quiet_NaN();  ///< first contact after it
+  std::vector<PathPoint> planned_com;  ///< this jump's plan, world frame (empty: none)
+};
+
 /// A run to draw. The ground plane z = 0 is always drawn.
 struct Recording {
   std::string title;                   ///< shown on every picture
@@ -61,6 +68,10 @@ struct Recording {
   double front_liftoff_t = std::numeric_limits<double>::quiet_NaN();
   /// The plan's joint speeds and torques over the take-off (empty: none; the knee figure).
   std::vector<PlannedJoints> planned_joints;
+  /// Every jump of a run with several (the course), in time order: the snapshot strip draws
+  /// one row each. Empty for a run with one jump, which the fields above describe (they
+  /// describe the last jump of a run with several).
+  std::vector<JumpSpan> jumps;
   /// What the frames are: "simulated" (ground truth), "estimated" (hardware) or "planned".
   std::string source = "simulated";
 

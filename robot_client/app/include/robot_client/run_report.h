@@ -120,6 +120,10 @@ class RunRecorder {
                  const PlanRequester* requester) const;
   /// Keeps every period's pose from now on, for the pictures (--snapshots, --gif, --html).
   void keepFrames() { keep_frames_ = true; }
+  /// Simulation, between periods: keeps the CoM path of the plan each jump executes, so that a
+  /// run with several jumps (the course) draws each against its own plan. Copies the plan once
+  /// per jump: not for the real-time thread (on hardware only the last jump's plan is drawn).
+  void notePlan(const PlanRequester* requester);
   /// The run for the viewers (viz/): the ground truth in simulation, else the estimate; the
   /// plan's CoM path placed where the take-off started; the scenario's wall.
   viz::Recording recording(const ControlLoop& loop, const PlanRequester* requester) const;
@@ -141,7 +145,17 @@ class RunRecorder {
   long err_n_ = 0;
   bool keep_frames_ = false;
   std::vector<viz::Frame> frames_;
-  double frames_takeoff_com_x_ = std::numeric_limits<double>::quiet_NaN();  // CoM x at take-off
+  // The jumps seen in the frames: where each take-off started and the plan it executed.
+  struct JumpTrace {
+    double takeoff_t = 0.0;                   // first frame in TAKEOFF [s]
+    double takeoff_com_x = 0.0;               // CoM x there [m]
+    std::vector<viz::PathPoint> planned_com;  // world frame; empty until notePlan
+  };
+  std::vector<JumpTrace> jumps_;
+  Mode last_frame_mode_ = Mode::Stand;
+  void noteFrame(Mode m, double t, double com_x);
+  std::vector<viz::PathPoint> plannedPath(const planner::JumpPlan& plan,
+                                          const JumpTrace& jump) const;
 };
 
 }  // namespace wj::robot_client
