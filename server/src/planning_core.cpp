@@ -212,9 +212,9 @@ void PlanningCore::plan(PlanRequest request, std::shared_ptr<PlanCall> call) {
   startComputation(std::move(request), key, std::move(call), BoundedExecutor::Lane::Request);
 }
 
-std::optional<CachedSolution> PlanningCore::findHit(const PlanRequest& request,
-                                                    const CacheKey& key) {
-  std::optional<CachedSolution> hit = cache_.find(key);
+std::optional<CachedSolution> PlanningCore::findHit(const PlanRequest& request, const CacheKey& key,
+                                                    std::uint64_t* generation) {
+  std::optional<CachedSolution> hit = cache_.find(key, generation);
   if (hit && wantsVerification(request) && hit->verification.status == VerificationStatus::NotRun)
     hit.reset();  // computed without verification; this caller wants it verified
   return hit;

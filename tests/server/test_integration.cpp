@@ -129,7 +129,8 @@ TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
 
 // The hot tier (cache.hot_responses_mb > 0): the first hit of a bin is regenerated at its
 // caller's state and becomes the bin's ready response; later hits of the bin get that response
-// (its trajectory starts at the first caller's v0), with their own request id, counted as hits.
+// (its trajectory starts at the first caller's v0) as ready bytes with their own request id and
+// total_ms appended, which the client parses as one message; counted as hits.
 // Off by default: every hit is regenerated (the test above).
 TEST(Integration, HotTierAnswersLaterHitsOfABinWithItsFirstHit) {
   TempDir dir("wj-it");
@@ -150,6 +151,7 @@ TEST(Integration, HotTierAnswersLaterHitsOfABinWithItsFirstHit) {
   ASSERT_TRUE(later.ok());
   EXPECT_EQ(later.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
   EXPECT_EQ(later.response.request_id(), "later");
+  EXPECT_GT(later.response.stats().total_ms(), 0.0);  // its own, merged into the ready stats
   EXPECT_NEAR(later.response.plan().centroidal_trajectory(0).com_vx_m_s(), 1.01, 1e-9);
   v1::PlanJumpResponse a = first.response, b = later.response;
   for (auto* m : {&a, &b}) {
