@@ -388,15 +388,17 @@ TEST(Integration, TheDeadlineBecomesTheBudget) {
   config.planner.max_evaluations_cap = 10'000'000;
   ServerProcess server(config, dir / "server.yaml");
   client::PlannerClient c(clientFor(server.target()));
-  // A search that would take minutes is cut to fit the client's 1.5 s.
-  const auto t0 = std::chrono::steady_clock::now();
+  // A search that would take minutes is cut to fit the client's 1.5 s. No wall-clock bound on
+  // the client's side (a loaded machine may take a few ms more to deliver the completion): an
+  // OK status is the proof that the answer arrived within the deadline, since gRPC ends a call
+  // whose deadline passed with DEADLINE_EXCEEDED. What the server did with the deadline is in
+  // the answer: its search got the budget of 1.5 s, not the minutes its settings allow, and
+  // used most of it.
   const auto r = plan(c, standingRequest(0.6), 1500ms);
-  const auto elapsed = std::chrono::steady_clock::now() - t0;
   ASSERT_TRUE(r.ok()) << r.status.error_message();
   expectWholePlan(r.response);
-  EXPECT_LT(elapsed, 1500ms);
-  EXPECT_LT(r.response.stats().total_ms(), 1500.0);
-  EXPECT_GT(r.response.stats().de_ms(), 700.0);  // and most of it is used
+  EXPECT_GT(r.response.stats().de_ms(), 700.0);
+  EXPECT_LT(r.response.stats().de_ms(), 1500.0);
   // No time at all: DEADLINE_EXCEEDED, never a half-written plan.
   const auto none = plan(c, standingRequest(2.2), 5ms);
   EXPECT_EQ(none.status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
