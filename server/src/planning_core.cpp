@@ -217,6 +217,10 @@ std::optional<CachedSolution> PlanningCore::findHit(const PlanRequest& request, 
   std::optional<CachedSolution> hit = cache_.find(key, generation);
   if (hit && wantsVerification(request) && hit->verification.status == VerificationStatus::NotRun)
     hit.reset();  // computed without verification; this caller wants it verified
+  // An infeasible answer is not the last word for a caller who allows its search more
+  // evaluations (docs/service.md, "Infeasible answers"): computed again, with that budget.
+  else if (hit && !hit->feasible && pipeline_.maxEvaluations(request) > hit->max_evaluations)
+    hit.reset();
   return hit;
 }
 

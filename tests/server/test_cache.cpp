@@ -141,6 +141,7 @@ TEST(CachedSolution, CodecRoundTripsAndRefusesDamage) {
   s.verification.failure_bits = 0x42;
   s.verification.candidates_verified = 3;
   s.evaluations = 1234567;
+  s.max_evaluations = 2000000;
   const std::string payload = encodeSolution(s);
   const auto back = decodeSolution(payload);
   ASSERT_TRUE(back.has_value());
@@ -152,6 +153,15 @@ TEST(CachedSolution, CodecRoundTripsAndRefusesDamage) {
   std::string wrong_version = payload;
   wrong_version[0] = 9;
   EXPECT_FALSE(decodeSolution(wrong_version).has_value());
+  // The search's evaluation budget (format 2) round-trips; format 1 rows (without it) are still
+  // read, with the evaluations the search used as its budget.
+  EXPECT_EQ(back->max_evaluations, s.max_evaluations);
+  std::string v1 = payload.substr(0, payload.size() - 8);
+  v1[0] = 1;
+  ASSERT_TRUE(decodeSolution(v1).has_value());
+  EXPECT_EQ(decodeSolution(v1)->max_evaluations, 1234567);
+  std::string v2_short = payload.substr(0, payload.size() - 8);
+  EXPECT_FALSE(decodeSolution(v2_short).has_value());
   CachedSolution nan = s;
   nan.u[3] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(decodeSolution(encodeSolution(nan)).has_value());
@@ -170,6 +180,18 @@ TEST(CachedSolution, EntryFitsInOneKilobyte) {
   const std::size_t in_memory = sizeof(CacheKey) + sizeof(CachedSolution) + 2 * sizeof(void*) +
                                 sizeof(CacheKey) + 3 * sizeof(void*) + 48;
   EXPECT_LE(in_memory, 1024u) << in_memory;
+}
+
+TEST(CachedSolution, AtEqualCostALargerBudgetIsBetter) {
+  CachedSolution small = solution(1), large = solution(1);
+  small.feasible = large.feasible = false;
+  small.max_evaluations = 100;
+  large.max_evaluations = 10000;
+  EXPECT_TRUE(isBetterSolution(large, small));
+  EXPECT_FALSE(isBetterSolution(small, large));
+  EXPECT_FALSE(isBetterSolution(small, small));
+  large.final_cost += 1e-9;  // cost first
+  EXPECT_FALSE(isBetterSolution(large, small));
 }
 
 TEST(CachedSolution, BetterMeansVerifiedThenFeasibleThenCheaper) {

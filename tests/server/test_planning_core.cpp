@@ -278,6 +278,40 @@ TEST(PlanningCore, TheDeadlineBoundsTheSearch) {
   EXPECT_EQ(o.answer.verification.status, VerificationStatus::NotRun);
 }
 
+// An infeasible answer whose search ran out of evaluations is served as a hit to callers who
+// allow no more evaluations, and computed again (with the larger budget) for a caller who allows
+// more; the larger search's answer then replaces it, also when it is no better, so that the next
+// such caller gets a hit. The seed is part of the key: other seeds never see the entry.
+TEST(PlanningCore, InfeasibleAnswerOfATooSmallBudgetIsRecomputedForALargerOne) {
+  ServerConfig c = coreConfig();
+  c.verification.enabled = false;
+  Fixture f(c);
+  PlanRequest small = request(0.0, 1.5);  // out of reach: infeasible with any budget
+  small.max_evaluations = 200;            // a few generations
+  const auto first = planSync(*f.core, small);
+  expectAnswer(first);
+  ASSERT_FALSE(first.answer.evaluation.feasible);
+  ASSERT_EQ(first.answer.source, PlanSource::CacheMiss);
+  ASSERT_LT(first.answer.stats.evaluations, 1000);
+  // The same small budget, or a smaller one: the stored answer is what it would compute.
+  EXPECT_EQ(planSync(*f.core, small).answer.source, PlanSource::CacheHit);
+  PlanRequest smaller = small;
+  smaller.max_evaluations = 150;
+  EXPECT_EQ(planSync(*f.core, smaller).answer.source, PlanSource::CacheHit);
+  // A larger budget: computed again, and stored.
+  PlanRequest larger = small;
+  larger.max_evaluations = 2000;
+  const auto again = planSync(*f.core, larger);
+  expectAnswer(again);
+  EXPECT_EQ(again.answer.source, PlanSource::CacheMiss);
+  EXPECT_GT(again.answer.stats.evaluations, first.answer.stats.evaluations);
+  // The larger search's answer is stored (better, or as good with a larger budget): a hit for
+  // both budgets from now on.
+  EXPECT_EQ(planSync(*f.core, larger).answer.source, PlanSource::CacheHit);
+  EXPECT_EQ(planSync(*f.core, small).answer.source, PlanSource::CacheHit);
+  EXPECT_EQ(f.core->stats().cache_misses, 2u);
+}
+
 TEST(PlanningCore, CancellationStopsTheSearch) {
   ServerConfig c = coreConfig();
   c.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
