@@ -2,6 +2,9 @@
 // plans and hits, invalid requests, concurrent clients, full queues, deadlines, cancellation,
 // WarmCache, SIGTERM, kill -9 in the middle of cache writes, corrupted rows, TLS and mutual TLS,
 // plaintext off loopback, configuration errors, message size bounds, verification in the loop.
+#include <grpcpp/create_channel.h>
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/security/credentials.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
@@ -282,9 +285,27 @@ TEST(Integration, InvalidRequestsNameTheFieldAndItsRange) {
   const auto empty = plan(c, v1::PlanJumpRequest{});
   EXPECT_EQ(empty.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_EQ(empty.attempts, 1);  // not retried
+  // Bytes that are no PlanJumpRequest at all (PlanJump parses its request itself, on the raw
+  // method): refused as invalid, and the server stays up.
+  {
+    auto channel = grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials());
+    grpc::GenericStub stub(channel);
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 10s);
+    const char garbage[] = {'\x0a', '\x7f', 'x'};  // field 1, length 127, 1 byte
+    grpc::Slice slice(garbage, sizeof garbage);
+    const grpc::ByteBuffer request(&slice, 1);
+    grpc::ByteBuffer response;
+    std::promise<grpc::Status> done;
+    stub.UnaryCall(&ctx, "/wheeljump.planner.v1.JumpPlanner/PlanJump", grpc::StubOptions(),
+                   &request, &response, [&](grpc::Status st) { done.set_value(st); });
+    const grpc::Status st = done.get_future().get();
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << st.error_message();
+    EXPECT_NE(st.error_message().find("PlanJumpRequest"), std::string::npos);
+  }
   const auto s = stats(c);
-  EXPECT_EQ(s.rejected_invalid(), 3u);
-  EXPECT_EQ(s.requests(), 3u);
+  EXPECT_EQ(s.rejected_invalid(), 4u);
+  EXPECT_EQ(s.requests(), 4u);
 }
 
 TEST(Integration, ConcurrentClientsMixHitsAndMisses) {
