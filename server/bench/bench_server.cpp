@@ -2,9 +2,10 @@
 //   1. cache hits: round-trip percentiles with N concurrent clients (own connections) and the
 //      hit throughput, the CPU time per hit of the server and of the clients, the response
 //      size; every request carries a different robot state inside its client's cache bin, as a
-//      robot's do, so that no answer can be a replay of an earlier one (unless
-//      --hot-responses-mb > 0 asks for the hot tier, whose later hits of a bin are the bin's
-//      first answer by design); and ("hit_breakdown")
+//      robot's do, so that no answer can be a replay of an earlier one ("cache_hits", with
+//      cache.hot_responses_mb = --hot-responses-mb, 0 by default as in the service); then the
+//      same with the hot tier of 64 MB, whose later hits of a bin are the bin's first answer by
+//      design ("cache_hits_hot_tier", unless --no-hot-tier); and ("hit_breakdown")
 //      the stages of one hit timed one by one on one thread, and (hot_*) a hot hit's own work
 //      in the service, the way of session 11 (copy and serialize) against the ready bytes;
 //   2. cold plans with verification: latency percentiles with the default planner settings and
@@ -192,6 +193,8 @@ v1::PlanJumpRequest standing(double v0, double height) {
 double g_output_dt_s = 0.002;
 // cache.hot_responses_mb of the hit benchmark's server (0: every hit regenerated).
 double g_hot_responses_mb = 0.0;
+// Whether the hit part also measures the hot tier (64 MB) when --hot-responses-mb is 0.
+bool g_both_hit_paths = true;
 
 wj::server::ServerConfig baseConfig(const std::filesystem::path& dir) {
   wj::server::ServerConfig c;
@@ -473,13 +476,13 @@ json benchGrpcFloor(Server& server, int clients, double seconds) {
   return j;
 }
 
-json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
+json benchHits(const std::filesystem::path& dir, int clients, double seconds, double hot_mb) {
   auto config = baseConfig(dir);
   config.cache.path.clear();
   config.planner.settings_file = writeFastPlannerSettings(dir).string();
   config.verification.enabled = false;
   config.executor.hit_workers = 2;
-  config.cache.hot_responses_mb = g_hot_responses_mb;
+  config.cache.hot_responses_mb = hot_mb;
   Server server(config, dir, "hits");
   const double wheel_radius = wj::model::RobotModel::loadDefault().wheelRadius();
   std::vector<BinnedRequests> generators;
@@ -526,7 +529,7 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
   json j = loopJson(loop);
   j["clients"] = clients;
   j["output_dt_s"] = config.planner.output_dt_s;
-  j["hot_responses_mb"] = g_hot_responses_mb;
+  j["hot_responses_mb"] = hot_mb;
   j["not_hits"] = not_hits.load();
   j["errors_or_not_hits"] = loop.errors + not_hits.load();
   j["response_bytes"] = sampled > 0 ? bytes_total.load() / sampled : 0;
@@ -912,6 +915,10 @@ int main(int argc, char** argv) {
                  "cache.hot_responses_mb of the hit benchmark's server: > 0 answers a hit after "
                  "the first of its bin with the bin's ready response (docs/service.md, Hot tier)")
       ->capture_default_str();
+  app.add_flag(
+      "!--no-hot-tier", g_both_hit_paths,
+      "with --hot-responses-mb 0, do not also measure the hot tier (64 MB) in the same run "
+      "(cache_hits_hot_tier)");
   std::string format = "knots";
   app.add_option("--format", format, "trajectory format of the requests: knots | dense")
       ->check(CLI::IsMember({"knots", "dense"}))
@@ -946,7 +953,13 @@ int main(int argc, char** argv) {
   out["machine"] = {{"hardware_threads", std::thread::hardware_concurrency()}};
   out["trajectory_format"] = format;
   try {
-    if (only.empty() || only == "hits") out["cache_hits"] = benchHits(dir, clients, hit_seconds);
+    if (only.empty() || only == "hits") {
+      out["cache_hits"] = benchHits(dir, clients, hit_seconds, g_hot_responses_mb);
+      // Both paths in one run: the default (regenerated) and the hot tier, each against the
+      // empty RPC measured on its own server.
+      if (g_hot_responses_mb == 0.0 && g_both_hit_paths)
+        out["cache_hits_hot_tier"] = benchHits(dir, clients, hit_seconds, 64.0);
+    }
     if (only.empty() || only == "hits" || only == "breakdown")
       out["hit_breakdown"] = benchHitBreakdown(dir, breakdown_iterations);
     if (only.empty() || only == "cold") {
