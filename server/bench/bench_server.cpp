@@ -2,10 +2,12 @@
 //   1. cache hits: round-trip percentiles with N concurrent clients (own connections) and the
 //      hit throughput, the CPU time per hit of the server and of the clients, the response
 //      size; every request carries a different robot state inside its client's cache bin, as a
-//      robot's do, so that no answer can be a replay of an earlier one (unless
-//      --hot-responses-mb > 0 asks for the hot tier, whose later hits of a bin are the bin's
-//      first answer by design); and ("hit_breakdown")
-//      the stages of one hit timed one by one on one thread;
+//      robot's do, so that no answer can be a replay of an earlier one ("cache_hits", with
+//      cache.hot_responses_mb = --hot-responses-mb, 0 by default as in the service); then the
+//      same with the hot tier of 64 MB, whose later hits of a bin are the bin's first answer by
+//      design ("cache_hits_hot_tier", unless --no-hot-tier); and ("hit_breakdown")
+//      the stages of one hit timed one by one on one thread, and (hot_*) a hot hit's own work
+//      in the service, the way of session 11 (copy and serialize) against the ready bytes;
 //   2. cold plans with verification: latency percentiles with the default planner settings and
 //      a generous deadline, and what a 150 ms deadline gets (with and without verification);
 //   3. durability: repeated kill -9 during cache writes (WarmCache), then every committed entry
@@ -44,7 +46,9 @@
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
 #include "planner_client/planner_client.h"
+#include "server/cached_solution.h"
 #include "server/config.h"
+#include "server/hot_responses.h"
 #include "server/plan_types.h"
 #include "server/redis_store.h"
 #include "server/request_validation.h"
@@ -189,6 +193,8 @@ v1::PlanJumpRequest standing(double v0, double height) {
 double g_output_dt_s = 0.002;
 // cache.hot_responses_mb of the hit benchmark's server (0: every hit regenerated).
 double g_hot_responses_mb = 0.0;
+// Whether the hit part also measures the hot tier (64 MB) when --hot-responses-mb is 0.
+bool g_both_hit_paths = true;
 
 wj::server::ServerConfig baseConfig(const std::filesystem::path& dir) {
   wj::server::ServerConfig c;
@@ -470,13 +476,13 @@ json benchGrpcFloor(Server& server, int clients, double seconds) {
   return j;
 }
 
-json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
+json benchHits(const std::filesystem::path& dir, int clients, double seconds, double hot_mb) {
   auto config = baseConfig(dir);
   config.cache.path.clear();
   config.planner.settings_file = writeFastPlannerSettings(dir).string();
   config.verification.enabled = false;
   config.executor.hit_workers = 2;
-  config.cache.hot_responses_mb = g_hot_responses_mb;
+  config.cache.hot_responses_mb = hot_mb;
   Server server(config, dir, "hits");
   const double wheel_radius = wj::model::RobotModel::loadDefault().wheelRadius();
   std::vector<BinnedRequests> generators;
@@ -523,7 +529,7 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds) {
   json j = loopJson(loop);
   j["clients"] = clients;
   j["output_dt_s"] = config.planner.output_dt_s;
-  j["hot_responses_mb"] = g_hot_responses_mb;
+  j["hot_responses_mb"] = hot_mb;
   j["not_hits"] = not_hits.load();
   j["errors_or_not_hits"] = loop.errors + not_hits.load();
   j["response_bytes"] = sampled > 0 ? bytes_total.load() / sampled : 0;
@@ -617,14 +623,38 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
     time("free_plan", [&] { a = wj::server::PlanAnswer{}; });
     time("client_parse", [&] { parsed.ParseFromString(wire); });
     bytes = static_cast<long>(wire.size());
+    // A hot hit's own work in the service, the way of session 11 (stamp the entry by encoding
+    // it, copy the ready message onto the call's arena, set the caller's fields, serialize
+    // into gRPC's buffer) against this one (ready bytes shared, a suffix of the caller's fields).
+    wj::server::CachedSolution entry;
+    std::copy(u.data(), u.data() + entry.u.size(), entry.u.begin());
+    const v1::PlanJumpResponse ready = parsed;
+    time("hot_stamp_encode_entry", [&] { wire = wj::server::encodeSolution(entry); });
+    time("hot_copy_and_serialize", [&] {
+      google::protobuf::Arena hot_arena(arena_options);
+      auto* copy = google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(&hot_arena);
+      copy->CopyFrom(ready);
+      copy->set_request_id(r.request_id);
+      copy->mutable_stats()->set_total_ms(0.01);
+      grpc::ByteBuffer buffer;
+      bool own = false;
+      (void)grpc::SerializationTraits<v1::PlanJumpResponse>::Serialize(*copy, &buffer, &own);
+    });
+    v1::PlanJumpResponse stripped = parsed;
+    const grpc::Slice ready_slice(wj::server::readyBytes(stripped));
+    time("hot_ready_bytes_and_suffix", [&] {
+      const std::string suffix = wj::server::readySuffix(r.request_id, 0.01);
+      grpc::Slice parts[2] = {ready_slice, grpc::Slice(suffix)};
+      grpc::ByteBuffer buffer(parts, 2);
+    });
   }
   json j;
   double total = 0.0;
   for (const auto& [stage, v] : us) {
     j["median_us"][stage] = percentile(v, 0.5);
-    total += percentile(v, 0.5);
+    if (stage.rfind("hot_", 0) != 0) total += percentile(v, 0.5);
   }
-  j["median_us_sum"] = total;
+  j["median_us_sum"] = total;  // the regenerated hit's stages (not the hot_ ones)
   j["iterations"] = iterations;
   j["response_bytes"] = bytes;
   j["samples"] = parsed.plan().joints().num_samples();
@@ -885,6 +915,10 @@ int main(int argc, char** argv) {
                  "cache.hot_responses_mb of the hit benchmark's server: > 0 answers a hit after "
                  "the first of its bin with the bin's ready response (docs/service.md, Hot tier)")
       ->capture_default_str();
+  app.add_flag(
+      "!--no-hot-tier", g_both_hit_paths,
+      "with --hot-responses-mb 0, do not also measure the hot tier (64 MB) in the same run "
+      "(cache_hits_hot_tier)");
   std::string format = "knots";
   app.add_option("--format", format, "trajectory format of the requests: knots | dense")
       ->check(CLI::IsMember({"knots", "dense"}))
@@ -919,7 +953,13 @@ int main(int argc, char** argv) {
   out["machine"] = {{"hardware_threads", std::thread::hardware_concurrency()}};
   out["trajectory_format"] = format;
   try {
-    if (only.empty() || only == "hits") out["cache_hits"] = benchHits(dir, clients, hit_seconds);
+    if (only.empty() || only == "hits") {
+      out["cache_hits"] = benchHits(dir, clients, hit_seconds, g_hot_responses_mb);
+      // Both paths in one run: the default (regenerated) and the hot tier, each against the
+      // empty RPC measured on its own server.
+      if (g_hot_responses_mb == 0.0 && g_both_hit_paths)
+        out["cache_hits_hot_tier"] = benchHits(dir, clients, hit_seconds, 64.0);
+    }
     if (only.empty() || only == "hits" || only == "breakdown")
       out["hit_breakdown"] = benchHitBreakdown(dir, breakdown_iterations);
     if (only.empty() || only == "cold") {

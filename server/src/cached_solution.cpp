@@ -10,7 +10,7 @@ namespace wj::server {
 
 namespace {
 
-constexpr std::uint8_t kFormatVersion = 1;
+constexpr std::uint8_t kFormatVersion = 2;
 
 class Writer {
  public:
@@ -111,12 +111,14 @@ std::string encodeSolution(const CachedSolution& s) {
   w.u16(v.returned_candidate_rank);
   w.f32(v.verify_ms);
   w.u64(static_cast<std::uint64_t>(s.created_unix_ms));
+  w.u64(static_cast<std::uint64_t>(s.max_evaluations));
   return w.take();
 }
 
 std::optional<CachedSolution> decodeSolution(std::string_view payload) {
   Reader r(payload);
-  if (r.u8() != kFormatVersion || !r.ok()) return std::nullopt;
+  const std::uint8_t version = r.u8();
+  if ((version != kFormatVersion && version != 1) || !r.ok()) return std::nullopt;
   if (r.u8() != planner::kNumDecision) return std::nullopt;
   CachedSolution s;
   for (double& v : s.u) v = r.f64();
@@ -151,6 +153,8 @@ std::optional<CachedSolution> decodeSolution(std::string_view payload) {
   v.returned_candidate_rank = r.u16();
   v.verify_ms = r.f32();
   s.created_unix_ms = static_cast<std::int64_t>(r.u64());
+  s.max_evaluations =
+      version == 1 ? s.evaluations : static_cast<std::int64_t>(r.u64());  // 1: what it used
   if (!r.ok() || !r.atEnd()) return std::nullopt;
   for (const double x : s.u)
     if (!std::isfinite(x)) return std::nullopt;
@@ -169,7 +173,8 @@ std::uint32_t rowChecksum(std::string_view key_bytes, std::string_view payload) 
 
 bool isBetterSolution(const CachedSolution& candidate, const CachedSolution& current) {
   const auto score = [](const CachedSolution& s) {
-    return std::make_tuple(statusRank(s.verification.status), s.feasible ? 1 : 0, -s.final_cost);
+    return std::make_tuple(statusRank(s.verification.status), s.feasible ? 1 : 0, -s.final_cost,
+                           s.max_evaluations);
   };
   return score(candidate) > score(current);
 }

@@ -2,6 +2,9 @@
 
 #include <spdlog/spdlog.h>
 
+#include <grpcpp/support/proto_buffer_reader.h>
+#include <grpcpp/support/proto_buffer_writer.h>
+
 #include <deque>
 #include <mutex>
 
@@ -42,17 +45,27 @@ Clock::time_point toCoreDeadline(std::chrono::system_clock::time_point deadline,
 }
 
 //==============================================================================================
+// PlanJump on the raw (ByteBuffer) callback method, so that a hot hit is answered with ready
+// bytes instead of a message copied and serialized per call: the request is parsed, and the
+// response serialized, here.
 class PlanJumpReactor final : public grpc::ServerUnaryReactor {
  public:
   PlanJumpReactor(JumpPlannerService& service, grpc::CallbackServerContext* context,
-                  const v1::PlanJumpRequest* request, v1::PlanJumpResponse* response)
-      : service_(service) {
+                  const grpc::ByteBuffer* request_bytes, grpc::ByteBuffer* response_bytes)
+      : service_(service), arena_(arenaOptions()) {
     auto& core = service_.core_;
     core.recordRequest();
     if (!service_.admit()) {
       admitted_ = false;
       core.recordBusy();
       Finish(tooManyCalls(service_.config_.limits.max_inflight_calls));
+      return;
+    }
+    auto* request = google::protobuf::Arena::CreateMessage<v1::PlanJumpRequest>(&arena_);
+    if (!parse(*request_bytes, request)) {
+      core.recordInvalid();
+      Finish(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                          "the request does not parse as a wheeljump.planner.v1.PlanJumpRequest"));
       return;
     }
     PlanRequest r;
@@ -69,24 +82,29 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
     const auto& robot = core.robot();
     HotSlot hot;
     if (service_.hot_.enabled()) {
-      hot = findHot(r, response);
+      hot = findHot(r, response_bytes);
       if (hot.served) return;
     }
+    auto* response = google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(&arena_);
     call_ = std::make_shared<PlanCall>(
         toCoreDeadline(context->deadline(), service_.config_.deadlines),
-        [this, response, request_id, &robot, hot = std::move(hot)](PlanOutcome&& o) {
-          // On a core worker thread: convert and finish there.
+        [this, response, response_bytes, request_id, &robot,
+         hot = std::move(hot)](PlanOutcome&& o) {
+          // On a core worker thread: convert, serialize and finish there.
           if (o.error) {
             spdlog::debug("PlanJump {}: {}", printable(request_id), o.error->what());
             Finish(toGrpcStatus(*o.error));
             return;
           }
           toProto(o.answer, robot, request_id, response);
+          bool own_buffer = false;
+          const grpc::Status serialized =
+              grpc::SerializationTraits<v1::PlanJumpResponse>::Serialize(*response, response_bytes,
+                                                                         &own_buffer);
           // A regenerated hit becomes the ready response of its bin.
-          if (!hot.key.empty() && o.answer.source == PlanSource::CacheHit)
-            service_.hot_.put(hot.key, hot.stamp,
-                              std::make_shared<const v1::PlanJumpResponse>(*response));
-          Finish(grpc::Status::OK);
+          if (serialized.ok() && !hot.key.empty() && o.answer.source == PlanSource::CacheHit)
+            service_.hot_.put(hot.key, hot.generation, readyBytes(*response));
+          Finish(serialized);
         });
     core.plan(std::move(r), call_);
   }
@@ -102,28 +120,41 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
  private:
   // The hot tier's slot of a request: its key and the cache entry it would be built from.
   struct HotSlot {
-    std::string key;    ///< "" when the request is not a hit
-    std::string stamp;  ///< the compact entry's bytes
+    std::string key;               ///< "" when the request is not a hit
+    std::uint64_t generation = 0;  ///< the cache entry's (SolutionCache::find)
     bool served = false;
   };
 
-  // Answers `r` from the hot tier if its bin has a ready response built from the entry the
-  // cache holds now (Finish is called and served is set); else the slot to fill after the hit.
-  HotSlot findHot(const PlanRequest& r, v1::PlanJumpResponse* response) {
+  // Small first block (a request, or an error answer, needs little), growing to 64 KiB blocks
+  // for the dense plan: about ten blocks for a 500 Hz response.
+  static google::protobuf::ArenaOptions arenaOptions() {
+    google::protobuf::ArenaOptions o;
+    o.start_block_size = 4 * 1024;
+    o.max_block_size = 64 * 1024;
+    return o;
+  }
+
+  static bool parse(const grpc::ByteBuffer& bytes, v1::PlanJumpRequest* request) {
+    grpc::ByteBuffer copy(bytes);  // shares the slices; Deserialize consumes its buffer
+    return grpc::SerializationTraits<v1::PlanJumpRequest>::Deserialize(&copy, request).ok();
+  }
+
+  // Answers `r` from the hot tier if its bin has ready bytes built from the entry the cache
+  // holds now (Finish is called and served is set); else the slot to fill after the hit.
+  HotSlot findHot(const PlanRequest& r, grpc::ByteBuffer* response_bytes) {
     const auto received = Clock::now();
     auto& core = service_.core_;
     HotSlot slot;
     const CacheKey key = core.keyOf(r);
-    const auto hit = core.findHit(r, key);
-    if (!hit) return slot;
+    if (!core.findHit(r, key, &slot.generation)) return slot;
     slot.key = key.bytes() + (r.trajectory == TrajectoryFormat::Knots ? 'K' : 'D');
-    slot.stamp = encodeSolution(*hit);
-    const auto ready = service_.hot_.find(slot.key, slot.stamp);
+    const auto ready = service_.hot_.find(slot.key, slot.generation);
     if (!ready) return slot;
-    response->CopyFrom(*ready);
-    response->set_request_id(r.request_id);
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - received).count();
-    response->mutable_stats()->set_total_ms(ms);
+    const std::string suffix = readySuffix(r.request_id, ms);
+    grpc::Slice parts[2] = {*ready, grpc::Slice(suffix)};
+    grpc::ByteBuffer answer(parts, 2);
+    response_bytes->Swap(&answer);
     core.recordHotHit(ms);
     slot.served = true;
     Finish(grpc::Status::OK);
@@ -131,6 +162,7 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
   }
 
   JumpPlannerService& service_;
+  google::protobuf::Arena arena_;  ///< the call's request and response
   std::shared_ptr<PlanCall> call_;
   bool admitted_ = true;
 };
@@ -221,43 +253,10 @@ class WarmCacheReactor final : public grpc::ServerWriteReactor<v1::WarmCacheProg
 };
 
 //==============================================================================================
-namespace {
-
-// The messages of one PlanJump call and the arena they live on; deleted when the call is done.
-class ArenaHolder final : public grpc::MessageHolder<v1::PlanJumpRequest, v1::PlanJumpResponse> {
- public:
-  ArenaHolder() : arena_(options()) {
-    set_request(google::protobuf::Arena::CreateMessage<v1::PlanJumpRequest>(&arena_));
-    set_response(google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(&arena_));
-  }
-  void Release() override { delete this; }
-
- private:
-  // Small first block (a request, or an error answer, needs little), growing to 64 KiB blocks
-  // for the dense plan: about ten blocks for a 500 Hz response.
-  static google::protobuf::ArenaOptions options() {
-    google::protobuf::ArenaOptions o;
-    o.start_block_size = 4 * 1024;
-    o.max_block_size = 64 * 1024;
-    return o;
-  }
-  google::protobuf::Arena arena_;
-};
-
-}  // namespace
-
-grpc::MessageHolder<v1::PlanJumpRequest, v1::PlanJumpResponse>*
-PlanJumpArenaAllocator::AllocateMessages() {
-  return new ArenaHolder;
-}
-
-//==============================================================================================
 JumpPlannerService::JumpPlannerService(PlanningCore& core, const ServerConfig& config)
     : core_(core),
       config_(config),
-      hot_(static_cast<std::size_t>(config.cache.hot_responses_mb * 1024.0 * 1024.0)) {
-  SetMessageAllocatorFor_PlanJump(&allocator_);
-}
+      hot_(static_cast<std::size_t>(config.cache.hot_responses_mb * 1024.0 * 1024.0)) {}
 
 bool JumpPlannerService::admit() {
   if (inflight_.fetch_add(1) >= config_.limits.max_inflight_calls) {
@@ -268,8 +267,8 @@ bool JumpPlannerService::admit() {
 }
 
 grpc::ServerUnaryReactor* JumpPlannerService::PlanJump(grpc::CallbackServerContext* context,
-                                                       const v1::PlanJumpRequest* request,
-                                                       v1::PlanJumpResponse* response) {
+                                                       const grpc::ByteBuffer* request,
+                                                       grpc::ByteBuffer* response) {
   return new PlanJumpReactor(*this, context, request, response);
 }
 

@@ -86,10 +86,7 @@ planner::PlanOptions MissPipeline::searchOptions(const MissInputs& in) const {
 
   planner::PlanOptions options;
   options.seed = in.seed;
-  options.max_evaluations = std::min(request.max_evaluations.value_or(settings.de.max_evaluations),
-                                     config_.planner.max_evaluations_cap);
-  options.max_evaluations =
-      std::max<std::int64_t>(*options.max_evaluations, settings.de.population_size);
+  options.max_evaluations = maxEvaluations(request);
   options.time_budget_s = std::max(de_budget, 1e-3);
   options.threads = config_.planner.de_threads;
   options.polish = polish;
@@ -210,11 +207,19 @@ std::string MissPipeline::notRunReason(const PlanRequest& request) const {
   return "not run: skipped by the request (budget.skip_verification)";
 }
 
+std::int64_t MissPipeline::maxEvaluations(const PlanRequest& request) const {
+  const auto& de = planner_.settings().de;
+  const std::int64_t asked = std::min<std::int64_t>(
+      request.max_evaluations.value_or(de.max_evaluations), config_.planner.max_evaluations_cap);
+  return std::max<std::int64_t>(asked, de.population_size);
+}
+
 CachedSolution MissPipeline::compactSolution(const planner::PlannerResult& result,
                                              const planner::Candidate& chosen,
                                              const PlanAnswer& answer,
                                              const StoredVerification& verification,
-                                             std::uint64_t seed, bool de_complete) const {
+                                             std::uint64_t seed, bool de_complete,
+                                             std::int64_t max_evaluations) const {
   CachedSolution solution;
   for (int i = 0; i < planner::kNumDecision; ++i)
     solution.u[static_cast<std::size_t>(i)] = chosen.u[i];
@@ -223,6 +228,7 @@ CachedSolution MissPipeline::compactSolution(const planner::PlannerResult& resul
   solution.t3 = answer.plan.t3;
   solution.feasible = chosen.evaluation.feasible;
   solution.de_complete = de_complete;
+  solution.max_evaluations = max_evaluations;
   solution.de_cost = result.de_cost;
   solution.final_cost = chosen.evaluation.cost;
   solution.seed = seed;
@@ -313,8 +319,8 @@ MissResult MissPipeline::run(const MissInputs& in) {
     describeEvaluation(answer.evaluation, planner_.settings().polish_backoff, answer.binding,
                        answer.summary);
   }
-  out.solution =
-      compactSolution(result, cand, answer, stored_verification, *options.seed, de_complete);
+  out.solution = compactSolution(result, cand, answer, stored_verification, *options.seed,
+                                 de_complete, *options.max_evaluations);
   // A search cut short by the clock that found nothing feasible may do better with more time:
   // it is answered but not cached.
   out.cacheable = de_complete || out.solution->feasible;

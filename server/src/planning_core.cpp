@@ -212,11 +212,15 @@ void PlanningCore::plan(PlanRequest request, std::shared_ptr<PlanCall> call) {
   startComputation(std::move(request), key, std::move(call), BoundedExecutor::Lane::Request);
 }
 
-std::optional<CachedSolution> PlanningCore::findHit(const PlanRequest& request,
-                                                    const CacheKey& key) {
-  std::optional<CachedSolution> hit = cache_.find(key);
+std::optional<CachedSolution> PlanningCore::findHit(const PlanRequest& request, const CacheKey& key,
+                                                    std::uint64_t* generation) {
+  std::optional<CachedSolution> hit = cache_.find(key, generation);
   if (hit && wantsVerification(request) && hit->verification.status == VerificationStatus::NotRun)
     hit.reset();  // computed without verification; this caller wants it verified
+  // An infeasible answer is not the last word for a caller who allows its search more
+  // evaluations (docs/service.md, "Infeasible answers"): computed again, with that budget.
+  else if (hit && !hit->feasible && pipeline_.maxEvaluations(request) > hit->max_evaluations)
+    hit.reset();
   return hit;
 }
 

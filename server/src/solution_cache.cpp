@@ -20,15 +20,16 @@ SolutionCache::SolutionCache(std::int64_t max_entries, std::unique_ptr<SecondLev
 
 void SolutionCache::insertLocked(const CacheKey& key, const CachedSolution& solution) {
   if (const auto it = map_.find(key); it != map_.end()) {
-    it->second->second = solution;
+    it->second->solution = solution;
+    it->second->generation = next_generation_++;
     lru_.splice(lru_.begin(), lru_, it->second);
     return;
   }
-  lru_.emplace_front(key, solution);
+  lru_.push_front(Node{key, solution, next_generation_++});
   map_.emplace(key, lru_.begin());
   ++families_[key.family()][key.v0_bin];
   while (static_cast<std::int64_t>(map_.size()) > max_entries_) {
-    const CacheKey& victim = lru_.back().first;
+    const CacheKey& victim = lru_.back().key;
     const auto fam = families_.find(victim.family());
     if (fam != families_.end()) {
       if (--fam->second[victim.v0_bin] <= 0) fam->second.erase(victim.v0_bin);
@@ -40,12 +41,13 @@ void SolutionCache::insertLocked(const CacheKey& key, const CachedSolution& solu
   }
 }
 
-std::optional<CachedSolution> SolutionCache::find(const CacheKey& key) {
+std::optional<CachedSolution> SolutionCache::find(const CacheKey& key, std::uint64_t* generation) {
   std::lock_guard lock(mu_);
   const auto it = map_.find(key);
   if (it == map_.end()) return std::nullopt;
   lru_.splice(lru_.begin(), lru_, it->second);
-  return it->second->second;
+  if (generation) *generation = it->second->generation;
+  return it->second->solution;
 }
 
 std::optional<CachedSolution> SolutionCache::findPersisted(const CacheKey& key) {
@@ -62,7 +64,7 @@ bool SolutionCache::put(const CacheKey& key, const CachedSolution& solution) {
   {
     std::lock_guard lock(mu_);
     const auto it = map_.find(key);
-    if (it != map_.end() && !isBetterSolution(solution, it->second->second)) return false;
+    if (it != map_.end() && !isBetterSolution(solution, it->second->solution)) return false;
   }
   std::exception_ptr write_error;
   if (store_) {
@@ -76,7 +78,7 @@ bool SolutionCache::put(const CacheKey& key, const CachedSolution& solution) {
     std::lock_guard lock(mu_);
     const auto it = map_.find(key);
     // A concurrent put may have stored a better one meanwhile.
-    if (it == map_.end() || isBetterSolution(solution, it->second->second))
+    if (it == map_.end() || isBetterSolution(solution, it->second->solution))
       insertLocked(key, solution);
   }
   if (write_error) std::rethrow_exception(write_error);
@@ -101,7 +103,7 @@ std::vector<std::pair<std::int32_t, CachedSolution>> SolutionCache::nearestByV0(
     CacheKey k = key;
     k.v0_bin = bin;
     const auto it = map_.find(k);
-    if (it != map_.end()) out.emplace_back(bin, it->second->second);
+    if (it != map_.end()) out.emplace_back(bin, it->second->solution);
   }
   return out;
 }

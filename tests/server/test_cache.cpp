@@ -141,6 +141,7 @@ TEST(CachedSolution, CodecRoundTripsAndRefusesDamage) {
   s.verification.failure_bits = 0x42;
   s.verification.candidates_verified = 3;
   s.evaluations = 1234567;
+  s.max_evaluations = 2000000;
   const std::string payload = encodeSolution(s);
   const auto back = decodeSolution(payload);
   ASSERT_TRUE(back.has_value());
@@ -152,6 +153,15 @@ TEST(CachedSolution, CodecRoundTripsAndRefusesDamage) {
   std::string wrong_version = payload;
   wrong_version[0] = 9;
   EXPECT_FALSE(decodeSolution(wrong_version).has_value());
+  // The search's evaluation budget (format 2) round-trips; format 1 rows (without it) are still
+  // read, with the evaluations the search used as its budget.
+  EXPECT_EQ(back->max_evaluations, s.max_evaluations);
+  std::string v1 = payload.substr(0, payload.size() - 8);
+  v1[0] = 1;
+  ASSERT_TRUE(decodeSolution(v1).has_value());
+  EXPECT_EQ(decodeSolution(v1)->max_evaluations, 1234567);
+  std::string v2_short = payload.substr(0, payload.size() - 8);
+  EXPECT_FALSE(decodeSolution(v2_short).has_value());
   CachedSolution nan = s;
   nan.u[3] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(decodeSolution(encodeSolution(nan)).has_value());
@@ -170,6 +180,18 @@ TEST(CachedSolution, EntryFitsInOneKilobyte) {
   const std::size_t in_memory = sizeof(CacheKey) + sizeof(CachedSolution) + 2 * sizeof(void*) +
                                 sizeof(CacheKey) + 3 * sizeof(void*) + 48;
   EXPECT_LE(in_memory, 1024u) << in_memory;
+}
+
+TEST(CachedSolution, AtEqualCostALargerBudgetIsBetter) {
+  CachedSolution small = solution(1), large = solution(1);
+  small.feasible = large.feasible = false;
+  small.max_evaluations = 100;
+  large.max_evaluations = 10000;
+  EXPECT_TRUE(isBetterSolution(large, small));
+  EXPECT_FALSE(isBetterSolution(small, large));
+  EXPECT_FALSE(isBetterSolution(small, small));
+  large.final_cost += 1e-9;  // cost first
+  EXPECT_FALSE(isBetterSolution(large, small));
 }
 
 TEST(CachedSolution, BetterMeansVerifiedThenFeasibleThenCheaper) {
@@ -369,47 +391,111 @@ TEST(SolutionCache, NearestNeighboursInV0) {
   EXPECT_EQ(cache.nearestByV0(keyAt(5), 3, 100)[0].first, 2);  // itself excluded
 }
 
-// The hot tier: a response is served only while the entry it was built from is the cache's,
+// Every value the cache stores gets a generation of its own: a replaced or re-inserted entry
+// is never taken for the one a hot response was built from.
+TEST(SolutionCache, EveryStoredValueHasItsOwnGeneration) {
+  SolutionCache cache(2, nullptr);
+  std::uint64_t g0 = 0, g0_again = 0, g1 = 0, g0_better = 0, g0_back = 0;
+  cache.put(keyAt(0), solution(0));
+  ASSERT_TRUE(cache.find(keyAt(0), &g0));
+  ASSERT_TRUE(cache.find(keyAt(0), &g0_again));
+  EXPECT_EQ(g0, g0_again);  // the same value: the same generation
+  cache.put(keyAt(1), solution(1));
+  ASSERT_TRUE(cache.find(keyAt(1), &g1));
+  EXPECT_NE(g1, g0);
+  CachedSolution better = solution(0);
+  better.final_cost -= 1.0;
+  ASSERT_TRUE(cache.put(keyAt(0), better));
+  ASSERT_TRUE(cache.find(keyAt(0), &g0_better));
+  EXPECT_NE(g0_better, g0);
+  // Evicted (2 entries at most) and stored again: a new generation.
+  cache.put(keyAt(2), solution(2));
+  cache.put(keyAt(3), solution(3));
+  ASSERT_FALSE(cache.find(keyAt(0)).has_value());
+  cache.put(keyAt(0), better);
+  ASSERT_TRUE(cache.find(keyAt(0), &g0_back));
+  EXPECT_NE(g0_back, g0_better);
+  EXPECT_NE(g0_back, g0);
+}
+
+wheeljump::planner::v1::PlanJumpResponse hotResponse(const std::string& id, int samples) {
+  wheeljump::planner::v1::PlanJumpResponse r;
+  r.set_request_id(id);
+  r.set_source(wheeljump::planner::v1::PLAN_SOURCE_CACHE_HIT);
+  r.mutable_stats()->set_total_ms(0.25);
+  r.mutable_stats()->set_cache_key("abcd");
+  r.mutable_stats()->set_evaluations(1234);
+  for (int i = 0; i < samples; ++i) r.mutable_plan()->add_decision_vector(0.5 * i);
+  return r;
+}
+
+// A hot answer is the ready bytes followed by the caller's own fields: parsed, it is the
+// response with the caller's request_id and total_ms, every other field as it was (the stats
+// message is merged, not replaced), an empty id included.
+TEST(HotResponses, ReadyBytesAndTheCallersSuffixParseAsTheCallersResponse) {
+  for (const std::string id : {"robot-7", ""}) {
+    auto first = hotResponse("first-caller", 50);
+    wheeljump::planner::v1::PlanJumpResponse expected = first;
+    expected.set_request_id(id);
+    expected.mutable_stats()->set_total_ms(0.0625);
+    const std::string ready = readyBytes(first);
+    EXPECT_EQ(first.request_id(), "");  // the per-call fields are not in the ready bytes
+    EXPECT_EQ(first.stats().total_ms(), 0.0);
+    wheeljump::planner::v1::PlanJumpResponse parsed;
+    ASSERT_TRUE(parsed.ParseFromString(ready + readySuffix(id, 0.0625)));
+    EXPECT_EQ(parsed.SerializeAsString(), expected.SerializeAsString()) << id;
+    EXPECT_EQ(parsed.request_id(), id);
+    EXPECT_EQ(parsed.stats().cache_key(), "abcd");
+    EXPECT_EQ(parsed.stats().evaluations(), 1234u);
+    EXPECT_EQ(parsed.plan().decision_vector_size(), 50);
+  }
+}
+
+// The hot tier: bytes are served only while the entry they were built from is the cache's,
 // the bound in bytes evicts the least recently used, and 0 MB is off.
 TEST(HotResponses, ServesOnlyWhatTheCurrentEntryBuiltWithinItsBound) {
-  const auto response = [](const std::string& id, int samples) {
-    auto r = std::make_shared<wheeljump::planner::v1::PlanJumpResponse>();
-    r->set_request_id(id);
-    for (int i = 0; i < samples; ++i) r->mutable_plan()->add_decision_vector(i);
-    return std::shared_ptr<const HotResponses::Response>(std::move(r));
+  const auto bytes = [](const std::string& id, int samples) {
+    auto r = hotResponse(id, samples);
+    r.mutable_stats()->set_cache_key(id);  // tells the responses apart once the id is cleared
+    return readyBytes(r);
+  };
+  const auto keyOf = [](const grpc::Slice& slice) {
+    wheeljump::planner::v1::PlanJumpResponse r;
+    EXPECT_TRUE(r.ParseFromArray(slice.begin(), static_cast<int>(slice.size())));
+    return r.stats().cache_key();
   };
   HotResponses off(0);
   EXPECT_FALSE(off.enabled());
-  off.put("a", "s1", response("a", 10));
-  EXPECT_EQ(off.find("a", "s1"), nullptr);
+  off.put("a", 1, bytes("a", 10));
+  EXPECT_FALSE(off.find("a", 1).has_value());
 
-  const auto one = response("a", 100);  // ~0.9 KB
-  const std::size_t size = one->ByteSizeLong() + 1 + 2;
+  const std::string one = bytes("a", 100);  // ~0.9 KB
+  const std::size_t size = one.size() + 1;
   HotResponses hot(3 * size);
-  hot.put("a", "s1", one);
-  ASSERT_NE(hot.find("a", "s1"), nullptr);
-  EXPECT_EQ(hot.find("a", "s1")->request_id(), "a");
+  hot.put("a", 1, one);
+  ASSERT_TRUE(hot.find("a", 1).has_value());
+  EXPECT_EQ(keyOf(*hot.find("a", 1)), "a");
   // The cache's entry changed (a better solution, or evicted and recomputed): dropped.
-  EXPECT_EQ(hot.find("a", "s2"), nullptr);
+  EXPECT_FALSE(hot.find("a", 2).has_value());
   EXPECT_EQ(hot.entries(), 0u);
   EXPECT_EQ(hot.bytes(), 0u);
   // Least recently used out first, within the bound.
-  hot.put("a", "s1", response("a", 100));
-  hot.put("b", "s1", response("b", 100));
-  hot.put("c", "s1", response("c", 100));
-  ASSERT_NE(hot.find("a", "s1"), nullptr);  // a is now the most recent
-  hot.put("d", "s1", response("d", 100));
+  hot.put("a", 1, bytes("a", 100));
+  hot.put("b", 1, bytes("b", 100));
+  hot.put("c", 1, bytes("c", 100));
+  ASSERT_TRUE(hot.find("a", 1).has_value());  // a is now the most recent
+  hot.put("d", 1, bytes("d", 100));
   EXPECT_EQ(hot.entries(), 3u);
   EXPECT_LE(hot.bytes(), 3 * size);
-  EXPECT_EQ(hot.find("b", "s1"), nullptr);
-  EXPECT_NE(hot.find("a", "s1"), nullptr);
-  EXPECT_NE(hot.find("d", "s1"), nullptr);
-  // Replacing a key keeps one entry; a response larger than the whole bound is not kept.
-  hot.put("d", "s2", response("D", 100));
-  EXPECT_EQ(hot.find("d", "s2")->request_id(), "D");
+  EXPECT_FALSE(hot.find("b", 1).has_value());
+  EXPECT_TRUE(hot.find("a", 1).has_value());
+  EXPECT_TRUE(hot.find("d", 1).has_value());
+  // Replacing a key keeps one entry; bytes larger than the whole bound are not kept.
+  hot.put("d", 2, bytes("D", 100));
+  EXPECT_EQ(keyOf(*hot.find("d", 2)), "D");
   EXPECT_EQ(hot.entries(), 3u);
-  hot.put("e", "s1", response("e", 1000));
-  EXPECT_EQ(hot.find("e", "s1"), nullptr);
+  hot.put("e", 1, bytes("e", 1000));
+  EXPECT_FALSE(hot.find("e", 1).has_value());
 }
 
 }  // namespace

@@ -2,6 +2,9 @@
 // plans and hits, invalid requests, concurrent clients, full queues, deadlines, cancellation,
 // WarmCache, SIGTERM, kill -9 in the middle of cache writes, corrupted rows, TLS and mutual TLS,
 // plaintext off loopback, configuration errors, message size bounds, verification in the loop.
+#include <grpcpp/create_channel.h>
+#include <grpcpp/generic/generic_stub.h>
+#include <grpcpp/security/credentials.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sqlite3.h>
@@ -129,7 +132,8 @@ TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
 
 // The hot tier (cache.hot_responses_mb > 0): the first hit of a bin is regenerated at its
 // caller's state and becomes the bin's ready response; later hits of the bin get that response
-// (its trajectory starts at the first caller's v0), with their own request id, counted as hits.
+// (its trajectory starts at the first caller's v0) as ready bytes with their own request id and
+// total_ms appended, which the client parses as one message; counted as hits.
 // Off by default: every hit is regenerated (the test above).
 TEST(Integration, HotTierAnswersLaterHitsOfABinWithItsFirstHit) {
   TempDir dir("wj-it");
@@ -150,6 +154,7 @@ TEST(Integration, HotTierAnswersLaterHitsOfABinWithItsFirstHit) {
   ASSERT_TRUE(later.ok());
   EXPECT_EQ(later.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
   EXPECT_EQ(later.response.request_id(), "later");
+  EXPECT_GT(later.response.stats().total_ms(), 0.0);  // its own, merged into the ready stats
   EXPECT_NEAR(later.response.plan().centroidal_trajectory(0).com_vx_m_s(), 1.01, 1e-9);
   v1::PlanJumpResponse a = first.response, b = later.response;
   for (auto* m : {&a, &b}) {
@@ -280,9 +285,27 @@ TEST(Integration, InvalidRequestsNameTheFieldAndItsRange) {
   const auto empty = plan(c, v1::PlanJumpRequest{});
   EXPECT_EQ(empty.status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_EQ(empty.attempts, 1);  // not retried
+  // Bytes that are no PlanJumpRequest at all (PlanJump parses its request itself, on the raw
+  // method): refused as invalid, and the server stays up.
+  {
+    auto channel = grpc::CreateChannel(server.target(), grpc::InsecureChannelCredentials());
+    grpc::GenericStub stub(channel);
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 10s);
+    const char garbage[] = {'\x0a', '\x7f', 'x'};  // field 1, length 127, 1 byte
+    grpc::Slice slice(garbage, sizeof garbage);
+    const grpc::ByteBuffer request(&slice, 1);
+    grpc::ByteBuffer response;
+    std::promise<grpc::Status> done;
+    stub.UnaryCall(&ctx, "/wheeljump.planner.v1.JumpPlanner/PlanJump", grpc::StubOptions(),
+                   &request, &response, [&](grpc::Status st) { done.set_value(st); });
+    const grpc::Status st = done.get_future().get();
+    EXPECT_EQ(st.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << st.error_message();
+    EXPECT_NE(st.error_message().find("PlanJumpRequest"), std::string::npos);
+  }
   const auto s = stats(c);
-  EXPECT_EQ(s.rejected_invalid(), 3u);
-  EXPECT_EQ(s.requests(), 3u);
+  EXPECT_EQ(s.rejected_invalid(), 4u);
+  EXPECT_EQ(s.requests(), 4u);
 }
 
 TEST(Integration, ConcurrentClientsMixHitsAndMisses) {
@@ -386,15 +409,17 @@ TEST(Integration, TheDeadlineBecomesTheBudget) {
   config.planner.max_evaluations_cap = 10'000'000;
   ServerProcess server(config, dir / "server.yaml");
   client::PlannerClient c(clientFor(server.target()));
-  // A search that would take minutes is cut to fit the client's 1.5 s.
-  const auto t0 = std::chrono::steady_clock::now();
+  // A search that would take minutes is cut to fit the client's 1.5 s. No wall-clock bound on
+  // the client's side (a loaded machine may take a few ms more to deliver the completion): an
+  // OK status is the proof that the answer arrived within the deadline, since gRPC ends a call
+  // whose deadline passed with DEADLINE_EXCEEDED. What the server did with the deadline is in
+  // the answer: its search got the budget of 1.5 s, not the minutes its settings allow, and
+  // used most of it.
   const auto r = plan(c, standingRequest(0.6), 1500ms);
-  const auto elapsed = std::chrono::steady_clock::now() - t0;
   ASSERT_TRUE(r.ok()) << r.status.error_message();
   expectWholePlan(r.response);
-  EXPECT_LT(elapsed, 1500ms);
-  EXPECT_LT(r.response.stats().total_ms(), 1500.0);
-  EXPECT_GT(r.response.stats().de_ms(), 700.0);  // and most of it is used
+  EXPECT_GT(r.response.stats().de_ms(), 700.0);
+  EXPECT_LT(r.response.stats().de_ms(), 1500.0);
   // No time at all: DEADLINE_EXCEEDED, never a half-written plan.
   const auto none = plan(c, standingRequest(2.2), 5ms);
   EXPECT_EQ(none.status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);

@@ -33,6 +33,9 @@ struct CachedSolution {
   double t1 = 0.0, t2 = 0.0, t3 = 0.0;            ///< phase times [s]
   bool feasible = false;                          ///< at the state it was computed for
   bool de_complete = false;  ///< the DE stopped on its own criterion (not time or cancel)
+  /// The evaluation budget the search was given (budget.max_evaluations or the settings', capped):
+  /// an infeasible answer is not the last word for a caller who allows more (findHit).
+  std::int64_t max_evaluations = 0;
   double de_cost = 0.0, final_cost = 0.0;
   std::uint64_t seed = 0;
   std::int64_t evaluations = 0;
@@ -42,7 +45,8 @@ struct CachedSolution {
   std::int64_t created_unix_ms = 0;
 };
 
-/// The payload bytes (format version 1).
+/// The payload bytes (format version 2: version 1 and max_evaluations; version 1 payloads are
+/// still read, with max_evaluations = evaluations).
 std::string encodeSolution(const CachedSolution& s);
 /// Parses a payload; nullopt if its version, length or any value is malformed (non-finite u).
 std::optional<CachedSolution> decodeSolution(std::string_view payload);
@@ -50,7 +54,9 @@ std::optional<CachedSolution> decodeSolution(std::string_view payload);
 std::uint32_t rowChecksum(std::string_view key_bytes, std::string_view payload);
 
 /// Whether replacing `current` by `candidate` improves the entry: verified and passing beats
-/// verified and failing beats unverified; then feasible beats infeasible; then lower final cost.
+/// verified and failing beats unverified; then feasible beats infeasible; then lower final cost;
+/// then a larger evaluation budget (a search given a larger budget that found no better answer
+/// replaces the smaller one's, so that the larger budget is not asked for again).
 bool isBetterSolution(const CachedSolution& candidate, const CachedSolution& current);
 
 }  // namespace wj::server

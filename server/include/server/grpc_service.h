@@ -5,7 +5,7 @@
 /// call finished from the core's worker thread. Nothing here blocks or plans.
 
 #include <google/protobuf/arena.h>
-#include <grpcpp/support/message_allocator.h>
+#include <grpcpp/support/byte_buffer.h>
 
 #include <atomic>
 #include <chrono>
@@ -22,25 +22,21 @@ namespace wj::server {
 Clock::time_point toCoreDeadline(std::chrono::system_clock::time_point deadline,
                                  const DeadlineConfig& config);
 
-/// PlanJump's request and response on one protobuf arena per call: the dense response (a few
-/// hundred CentroidalSample messages and three N x 16 arrays) is built with a handful of block
-/// allocations instead of one malloc per sample, and freed at once with its arena.
-class PlanJumpArenaAllocator final
-    : public grpc::MessageAllocator<wheeljump::planner::v1::PlanJumpRequest,
-                                    wheeljump::planner::v1::PlanJumpResponse> {
- public:
-  grpc::MessageHolder<wheeljump::planner::v1::PlanJumpRequest,
-                      wheeljump::planner::v1::PlanJumpResponse>*
-  AllocateMessages() override;
-};
+/// The service's base: GetStats and WarmCache on the typed callback API, PlanJump on the raw one
+/// (ByteBuffer in and out, so that the hot tier can answer with ready bytes; the request is
+/// parsed and the response serialized by the service, each on a protobuf arena per call).
+using JumpPlannerBase = wheeljump::planner::v1::JumpPlanner::WithRawCallbackMethod_PlanJump<
+    wheeljump::planner::v1::JumpPlanner::WithCallbackMethod_GetStats<
+        wheeljump::planner::v1::JumpPlanner::WithCallbackMethod_WarmCache<
+            wheeljump::planner::v1::JumpPlanner::Service>>>;
 
-class JumpPlannerService final : public wheeljump::planner::v1::JumpPlanner::CallbackService {
+class JumpPlannerService final : public JumpPlannerBase {
  public:
   JumpPlannerService(PlanningCore& core, const ServerConfig& config);
 
   grpc::ServerUnaryReactor* PlanJump(grpc::CallbackServerContext* context,
-                                     const wheeljump::planner::v1::PlanJumpRequest* request,
-                                     wheeljump::planner::v1::PlanJumpResponse* response) override;
+                                     const grpc::ByteBuffer* request,
+                                     grpc::ByteBuffer* response) override;
   grpc::ServerUnaryReactor* GetStats(grpc::CallbackServerContext* context,
                                      const wheeljump::planner::v1::GetStatsRequest* request,
                                      wheeljump::planner::v1::GetStatsResponse* response) override;
@@ -62,7 +58,6 @@ class JumpPlannerService final : public wheeljump::planner::v1::JumpPlanner::Cal
   ServerConfig config_;
   HotResponses hot_;  ///< ready responses of bins (cache.hot_responses_mb; 0 = off)
   std::atomic<int> inflight_{0};
-  PlanJumpArenaAllocator allocator_;
 };
 
 }  // namespace wj::server

@@ -71,6 +71,9 @@ class MissPipeline {
 
   /// Running estimate of one DE generation's wall time [ms] (the DE's clock granularity).
   double generationMs() const { return generation_ms_.load(); }
+  /// The evaluation budget of `request`'s search: budget.max_evaluations or the settings', at
+  /// most planner.max_evaluations_cap, at least one population.
+  std::int64_t maxEvaluations(const PlanRequest& request) const;
 
  private:
   struct Verified;
@@ -85,7 +88,7 @@ class MissPipeline {
   CachedSolution compactSolution(const planner::PlannerResult& result,
                                  const planner::Candidate& chosen, const PlanAnswer& answer,
                                  const StoredVerification& verification, std::uint64_t seed,
-                                 bool de_complete) const;
+                                 bool de_complete, std::int64_t max_evaluations) const;
 
   const ServerConfig& config_;
   const planner::JumpPlanner& planner_;

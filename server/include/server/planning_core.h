@@ -142,7 +142,9 @@ class PlanningCore {
   /// The memory cache's entry that would answer `request` (key `key`) as a hit now: none on a
   /// miss, or when the request wants verification and the entry was computed without it. Cheap
   /// (one lock, one lookup): the RPC layer's hot tier checks its responses against it.
-  std::optional<CachedSolution> findHit(const PlanRequest& request, const CacheKey& key);
+  /// `generation`, if given, receives the entry's generation (SolutionCache::find).
+  std::optional<CachedSolution> findHit(const PlanRequest& request, const CacheKey& key,
+                                        std::uint64_t* generation = nullptr);
   /// Counts a hit answered by the RPC layer's hot tier, `ms` after it was received.
   void recordHotHit(double ms);
   /// Counts a PlanJump call received (valid or not) / refused as invalid.

@@ -35,8 +35,10 @@ class SolutionCache {
   /// `store` may be null (memory only). Loads the newest `max_entries` valid rows of the store.
   SolutionCache(std::int64_t max_entries, std::unique_ptr<SecondLevelStore> store);
 
-  /// The entry of `key` in memory (and marks it most recently used).
-  std::optional<CachedSolution> find(const CacheKey& key);
+  /// The entry of `key` in memory (and marks it most recently used). `generation`, if given,
+  /// receives the entry's generation: a number that no other value stored in this cache, for
+  /// any key, ever had or will have (a stamp for what is built from the entry).
+  std::optional<CachedSolution> find(const CacheKey& key, std::uint64_t* generation = nullptr);
   /// The entry of `key` in the store, promoted into memory when found. Slow path: call it off
   /// the RPC threads. A store that cannot be reached answers a miss.
   std::optional<CachedSolution> findPersisted(const CacheKey& key);
@@ -54,7 +56,12 @@ class SolutionCache {
   bool persistent() const { return store_ != nullptr; }
 
  private:
-  using Lru = std::list<std::pair<CacheKey, CachedSolution>>;
+  struct Node {
+    CacheKey key;
+    CachedSolution solution;
+    std::uint64_t generation = 0;  ///< see find()
+  };
+  using Lru = std::list<Node>;
   void insertLocked(const CacheKey& key, const CachedSolution& solution);
 
   std::int64_t max_entries_;
@@ -64,6 +71,7 @@ class SolutionCache {
   std::unordered_map<CacheKey, Lru::iterator, CacheKeyHash> map_;
   /// Family key -> the v0 bins cached in memory.
   std::unordered_map<CacheKey, std::map<std::int32_t, int>, CacheKeyHash> families_;
+  std::uint64_t next_generation_ = 1;
   std::int64_t evictions_ = 0;
   std::int64_t persisted_hits_ = 0;
 };
