@@ -439,8 +439,11 @@ TEST(Integration, CancellationStopsTheWork) {
   c.cancelAll();
   ASSERT_EQ(slow.wait_for(5s), std::future_status::ready);
   EXPECT_EQ(slow.get().status.error_code(), grpc::StatusCode::CANCELLED);
-  // The only plan worker is free: a 2 s call gets its answer within its deadline.
-  const auto next = plan(c, standingRequest(1.7), 2000ms);
+  // The only plan worker is free: a 5 s call gets its answer within its deadline (an uncancelled
+  // search would hold the worker until its own 60 s deadline). The search of planner_long.yaml
+  // runs until the budget, so a shorter deadline leaves a loaded machine too little time after
+  // it to verify and answer.
+  const auto next = plan(c, standingRequest(1.7), 5000ms);
   EXPECT_TRUE(next.ok()) << next.status.error_message();
 }
 
