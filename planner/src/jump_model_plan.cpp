@@ -55,7 +55,7 @@ void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment seg
     int i = 0;
     for (const PairSample* p : {&smp.hind, &smp.front}) {
       q[i] = p->q;
-      qd[i] = p->contact ? p->qd : Eigen::Vector2d::Zero();
+      qd[i] = p->qd;  // a lifted front pair: its braking
       wheel_rate[i] = p->wheel_rate;
       wheel_tau[i] = p->contact ? p->wheel_tau : 0.0;
       haa_fz[i] = p->contact ? p->haa_fz : 0.0;
@@ -72,10 +72,16 @@ void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment seg
   } else {
     out.s = flightState(M, S, t);
     for (int pair = 0; pair < 2; ++pair) {
-      q[pair] = flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
+      q[pair] = flightPosture(M, S, pair, t, &qd[pair]);
       wheel_rate[pair] = flightWheelRate(M, S, pair, t);
     }
   }
+  // The legs' braking torques after their lift-off: the hind pair's (and a simultaneous
+  // take-off's front pair's) from t2, a two-step take-off's front pair's from t1.
+  std::array<Eigen::Vector2d, 2> brake_tau = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+  if (segment == Segment::Flight)
+    for (int pair = 0; pair < 2; ++pair) brake_tau[pair] = brakeTorque(S.brake[pair], t - S.t2);
+  if (segment == Segment::HindOnly) brake_tau[1] = brakeTorque(S.front_brake, t - S.t1);
   for (const Leg leg : model::kLegs) {
     const int pair = model::isFront(leg) ? 1 : 0;
     const int haa = model::jointIndex(leg, JointKind::HAA);
@@ -86,6 +92,10 @@ void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment seg
     out.tau[haa] = -lever * haa_fz[pair];
     out.q[haa + 1] = q[pair][0];
     out.q[haa + 2] = q[pair][1];
+    if (segment == Segment::Flight || (segment == Segment::HindOnly && pair == 1)) {
+      out.tau[haa + 1] = brake_tau[pair][0];
+      out.tau[haa + 2] = brake_tau[pair][1];
+    }
     out.qd[haa + 1] = qd[pair][0];
     out.qd[haa + 2] = qd[pair][1];
     out.qd[haa + 3] = wheel_rate[pair];
@@ -205,27 +215,46 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
   const detail::Solved S = detail::solvedOrThrow(k_, u, "buildKnots");
   JumpPlan plan = detail::planHeader(k_, S);
   plan.dt = 0.0;
-  // Phases and, in flight, the corners of the leg motion (tucked, extending, extended), where
-  // the postures' second derivatives jump: a knot sits on each.
+  // Phases and the corners of the leg motion (the braking's, tucked, extending, extended),
+  // where the postures' second derivatives jump: a knot sits on each.
   struct Piece {
     double a, b;
     detail::Segment segment;
   };
   std::vector<Piece> pieces;
+  // Pieces of one segment from `a` to `b`, cut at the instants `cuts` (those inside).
+  auto add_pieces = [&](double a, double b, detail::Segment segment, std::vector<double> cuts) {
+    std::sort(cuts.begin(), cuts.end());
+    double from = a;
+    for (const double c : cuts) {
+      if (c <= from + 1e-9 || c >= b - 1e-9) continue;
+      pieces.push_back({from, c, segment});
+      from = c;
+    }
+    pieces.push_back({from, b, segment});
+  };
+  // The corners of the legs' braking (the end of the envelope-limited part, and rest).
+  auto brake_corners = [](double start, const std::array<detail::JointBrake, 2>& b,
+                          std::vector<double>& out) {
+    for (const detail::JointBrake& j : b) {
+      out.push_back(start + j.t_a);
+      out.push_back(start + j.t_stop);
+    }
+  };
   if (S.two_step) {
     pieces.push_back({0.0, S.t1, detail::Segment::FourWheels});
-    pieces.push_back({S.t1, S.t2, detail::Segment::HindOnly});
+    std::vector<double> cuts;
+    brake_corners(S.t1, S.front_brake, cuts);
+    add_pieces(S.t1, S.t2, detail::Segment::HindOnly, cuts);
   } else {
     pieces.push_back({0.0, S.t2, detail::Segment::FourWheels});
   }
-  double from = S.t2;
+  std::vector<double> cuts;
   for (const double f : {k_.settings.tuck_end_fraction, k_.settings.extend_start_fraction,
-                         k_.settings.extend_end_fraction, 1.0}) {
-    const double to = std::min(S.t2 + f * S.Tf, S.t3);
-    if (to > from + 1e-9 || f == 1.0)
-      pieces.push_back({from, f == 1.0 ? S.t3 : to, detail::Segment::Flight});
-    from = std::max(from, to);
-  }
+                         k_.settings.extend_end_fraction})
+    cuts.push_back(S.t2 + f * S.Tf);
+  for (int pair = 0; pair < 2; ++pair) brake_corners(S.t2, S.brake[pair], cuts);
+  add_pieces(S.t2, S.t3, detail::Segment::Flight, cuts);
   // Each piece starts with even knots at most knot_dt_s apart. An interval is then halved
   // while the references at its midpoint differ from what densify() makes of its two knots by
   // more than the tolerances below (the legs move fast as they straighten at the end of the
@@ -273,9 +302,9 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
   for (std::size_t i = 0; i < pieces.size(); ++i) {
     const Piece& p = pieces[i];
     const int n = std::max(1, static_cast<int>(std::ceil((p.b - p.a) / h_max - 1e-9)));
-    // A flight piece continues the one before it: its first knot is that piece's last.
-    const bool continues = i > 0 && p.segment == detail::Segment::Flight &&
-                           pieces[i - 1].segment == detail::Segment::Flight;
+    // A piece continues the one before it in the same segment: its first knot is that
+    // piece's last.
+    const bool continues = i > 0 && p.segment == pieces[i - 1].segment;
     Knot prev{p.a, p.segment, {}, {}};
     if (continues) {
       prev = knots.back();
