@@ -677,7 +677,7 @@ TEST(JumpPlanner, OutOfReachTargetIsApproachedWithinTheConstraintsWithEitherSolv
     const JumpPlanner planner = makePlanner(withPolishSolver(solver));
     const Scenario sc = makePreset(planner, "backflip");
     int closer = 0;
-    for (const std::uint64_t seed : {1u, 2u, 4u}) {
+    for (const std::uint64_t seed : {1u, 5u, 7u}) {
       PlanOptions o;
       o.seed = seed;
       PlanOptions no_polish = o;
