@@ -2,7 +2,9 @@
 # Benchmark of the end-to-end forward jump: N sensor-noise seeds of robot_client (simulated
 # robot behind emulated CAN frames) against one planner_server on loopback with an empty cache,
 # then N seeds of the jump onto the 0.25 m platform (simulated robot), then N seeds of the
-# course (two walls 10 m apart, jumped in turn), then the vertical jump.
+# course (two walls 10 m apart, jumped in turn), then the vertical jump, then N seeds of the
+# backflip (from standing, against a second service on the 57 Nm-knee robot of the scenario's
+# actuators_file; docs/backflip.md).
 # Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
 set -euo pipefail
@@ -19,70 +21,77 @@ source scripts/planner-server.sh
 trap 'stop_planner_server; rm -rf "$WORK"' EXIT
 start_planner_server "$BIN" "$PORT" "$WORK/plan_cache.sqlite" "$WORK/planner_server.yaml" \
   "$WORK/server.log"
-for seed in $(seq 1 "$SEEDS"); do
-  "$BIN/robot_client" --backend sim --via-can --config config/robot_client.yaml \
-    --planner "127.0.0.1:${PORT}" --scenario forward --seed "$seed" --json "$@" \
-    > "$WORK/forward_$seed.json" 2> "$WORK/forward_$seed.log" || true
-done
-for seed in $(seq 1 "$SEEDS"); do
-  "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
-    --planner "127.0.0.1:${PORT}" --scenario platform --seed "$seed" --json "$@" \
-    > "$WORK/platform_$seed.json" 2> "$WORK/platform_$seed.log" || true
-done
-for seed in $(seq 1 "$SEEDS"); do
-  "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
-    --planner "127.0.0.1:${PORT}" --scenario course --seed "$seed" --json "$@" \
-    > "$WORK/course_$seed.json" 2> "$WORK/course_$seed.log" || true
-done
+EXTRA=("$@")  # extra robot_client options, passed to every run
+# N sensor-noise seeds of one scenario (further arguments: its backend options) into
+# $WORK/<scenario>_<seed>.json and .log.
+run_seeds() {
+  local scenario=$1
+  shift
+  for seed in $(seq 1 "$SEEDS"); do
+    "$BIN/robot_client" --backend sim "$@" --config config/robot_client.yaml \
+      --planner "127.0.0.1:${PORT}" --scenario "$scenario" --seed "$seed" --json "${EXTRA[@]}" \
+      > "$WORK/${scenario}_$seed.json" 2> "$WORK/${scenario}_$seed.log" || true
+  done
+}
+run_seeds forward --via-can
+run_seeds platform
+run_seeds course
 "$BIN/robot_client" --backend sim --config config/robot_client.yaml \
-  --planner "127.0.0.1:${PORT}" --scenario vertical --seed 1 --json "$@" \
+  --planner "127.0.0.1:${PORT}" --scenario vertical --seed 1 --json "${EXTRA[@]}" \
   > "$WORK/vertical.json" 2> "$WORK/vertical.log" || true
+# The backflip's robot differs (actuators-57nm.yaml): a service of its own, same port.
+stop_planner_server
+start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_57nm.sqlite" "$WORK/planner_server_57nm.yaml" \
+  "$WORK/server_57nm.log" actuators-57nm.yaml
+run_seeds backflip
 /usr/bin/python3 - "$WORK" "$SEEDS" <<'PY'
 import json, sys, statistics
 work, seeds = sys.argv[1], int(sys.argv[2])
-runs = []
-for s in range(1, seeds + 1):
-    try:
-        d = json.load(open(f"{work}/forward_{s}.json"))
-    except Exception as e:
-        runs.append({"seed": s, "error": str(e)}); continue
-    sim = d.get("simulated", {})
-    runs.append({"seed": s, "success": d["success"], "verdict": d["verdict"],
-                 "takeoff_speed_m_s": sim.get("takeoff_speed_m_s"),
-                 "apex_base_z_m": sim.get("apex_base_z_m"),
-                 "min_wall_clearance_m": sim.get("min_wall_clearance_m"),
-                 "planned_clearance_m": d["plan"]["predicted_clearance_m"],
-                 "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"]})
+def per_seed(scenario, fields):
+    """Each seed's run of a scenario: outcome plus fields(summary, simulated), or its error."""
+    out = []
+    for s in range(1, seeds + 1):
+        try:
+            d = json.load(open(f"{work}/{scenario}_{s}.json"))
+        except Exception as e:
+            out.append({"seed": s, "error": str(e)}); continue
+        out.append({"seed": s, "success": d["success"], "verdict": d["verdict"],
+                    **fields(d, d.get("simulated", {}))})
+    return out
+
+runs = per_seed("forward", lambda d, sim: {
+    "takeoff_speed_m_s": sim.get("takeoff_speed_m_s"),
+    "apex_base_z_m": sim.get("apex_base_z_m"),
+    "min_wall_clearance_m": sim.get("min_wall_clearance_m"),
+    "planned_clearance_m": d["plan"]["predicted_clearance_m"],
+    "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"]})
 ok = [r for r in runs if r.get("success")]
 cleared = [r for r in runs if (r.get("min_wall_clearance_m") or -1) > 0 and r.get("apex_base_z_m")]
-platform = []
-for s in range(1, seeds + 1):
-    try:
-        d = json.load(open(f"{work}/platform_{s}.json"))
-    except Exception as e:
-        platform.append({"seed": s, "error": str(e)}); continue
-    sim = d.get("simulated", {})
-    platform.append({"seed": s, "success": d["success"], "verdict": d["verdict"],
-                     "landed_on_top": "landed on the platform" in d["verdict"],
-                     "apex_base_z_m": sim.get("apex_base_z_m"),
-                     "touchdown_dx_m": sim.get("touchdown_dx_m"),
-                     "planned_touchdown_dx_m": d["plan"]["predicted_touchdown_dx_m"],
-                     "final_x_m": sim.get("final_x_m"), "final_speed_m_s": sim.get("final_speed_m_s"),
-                     "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"],
-                     "transitions": [t["to"] for t in d.get("transitions", [])]})
-course = []
-for s in range(1, seeds + 1):
-    try:
-        d = json.load(open(f"{work}/course_{s}.json"))
-    except Exception as e:
-        course.append({"seed": s, "error": str(e)}); continue
-    sim = d.get("simulated", {})
-    course.append({"seed": s, "success": d["success"], "verdict": d["verdict"],
-                   "walls_jumped": d.get("landings"),
-                   "jump_wall_clearance_m": sim.get("jump_wall_clearance_m"),
-                   "estimator_position_rms_m": sim.get("estimator_position_rms_m"),
-                   "estimator_position_max_m": sim.get("estimator_position_max_m"),
-                   "transitions": [t["to"] for t in d.get("transitions", [])]})
+platform = per_seed("platform", lambda d, sim: {
+    "landed_on_top": "landed on the platform" in d["verdict"],
+    "apex_base_z_m": sim.get("apex_base_z_m"),
+    "touchdown_dx_m": sim.get("touchdown_dx_m"),
+    "planned_touchdown_dx_m": d["plan"]["predicted_touchdown_dx_m"],
+    "final_x_m": sim.get("final_x_m"), "final_speed_m_s": sim.get("final_speed_m_s"),
+    "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"],
+    "transitions": [t["to"] for t in d.get("transitions", [])]})
+course = per_seed("course", lambda d, sim: {
+    "walls_jumped": d.get("landings"),
+    "jump_wall_clearance_m": sim.get("jump_wall_clearance_m"),
+    "estimator_position_rms_m": sim.get("estimator_position_rms_m"),
+    "estimator_position_max_m": sim.get("estimator_position_max_m"),
+    "transitions": [t["to"] for t in d.get("transitions", [])]})
+backflip = per_seed("backflip", lambda d, sim: {
+    "actuators_file": d.get("actuators_file"),
+    "touchdown_rotation_rad": sim.get("touchdown_rotation_rad"),
+    "final_rotation_rad": sim.get("final_rotation_rad"),
+    "planned_touchdown_rotation_rad": d["plan"].get("predicted_touchdown_rotation_rad"),
+    "apex_base_z_m": sim.get("apex_base_z_m"),
+    "touchdown_dx_m": sim.get("touchdown_dx_m"),
+    "knee_torque_nm": d["max_torque"]["KFE"]["max_nm"],
+    "knee_limit_nm": d["max_torque"]["KFE"]["limit_nm"],
+    "plan_verification": d["plan"]["verification"],
+    "plan_latency_ms": d["plan"]["latency_ms"]})
 v = json.load(open(f"{work}/vertical.json"))
 lat = [r["plan_latency_ms"] for r in runs if r.get("plan_latency_ms") is not None]
 print(json.dumps({
@@ -100,5 +109,7 @@ print(json.dumps({
     "vertical": {"success": v["success"], "verdict": v["verdict"],
                  "apex_base_z_m": v.get("simulated", {}).get("apex_base_z_m"),
                  "planned_apex_base_z_m": v["plan"]["predicted_apex_base_z_m"],
-                 "paper_hardware_m": 0.5, "paper_target_m": 0.7}}, indent=2))
+                 "paper_hardware_m": 0.5, "paper_target_m": 0.7},
+    "backflip": {"seeds": seeds, "success": sum(1 for r in backflip if r.get("success")),
+                 "target_rotation_rad": 6.283, "runs": backflip}}, indent=2))
 PY

@@ -152,6 +152,9 @@ for i in range(trials):
            "estimator_position_max_m": sim.get("estimator_position_max_m"),
            "jump_clearances_m": sim.get("jump_wall_clearance_m"),
            "landings": (d or {}).get("landings"),
+           # requests repeated after an answer without a plan (planner.retries)
+           "plan_retries": sum(1 for t in (d or {}).get("transitions", [])
+                               if t["reason"] == "no usable plan, requested again"),
            "plan": (d or {}).get("plan", {}).get("source"),
            "plan_summary": (d or {}).get("plan", {}).get("summary"),
            "verdict": (d or {}).get("verdict", open(f"{work}/trial_{seed}.log").read()[-300:])}
@@ -173,6 +176,7 @@ print(json.dumps({
                "wall_error_seen_by_range_sensor": wall_error == "seen"},
     "successes": ok, "success_rate": ok / trials if trials else 0.0,
     "jumped": len(jumped),
+    "trials_with_plan_retries": sum(1 for r in rows if r["plan_retries"] > 0),
     "failure_taxonomy": taxonomy,
     "hit_the_wall": sum(1 for r in jumped if r["clearance_m"] <= 0.0),
     "clearance_m": stats(r["clearance_m"] for r in jumped),  # trials that jumped

@@ -5,7 +5,9 @@
 # measurement through emulated MIT-mode CAN frames), the vertical scenario (crouched, as high as
 # the planner reaches), the platform scenario (roll up to 3 m/s, jump onto a 0.25 m platform,
 # land on its top) and the course (two 0.25 m walls 10 m apart, jumped one after the other
-# without stopping, then a stop). Summaries on
+# without stopping, then a stop) and the backflip (from standing, a full backward turn; its
+# robot has the paper's 57 Nm knee, actuators-57nm.yaml, so a second service runs for it,
+# docs/backflip.md). Summaries on
 # stdout, telemetry and figures in out/. Usage: scripts/run-e2e.sh [build dir] [seed]
 set -euo pipefail
 # DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
@@ -39,7 +41,21 @@ run forward --via-can
 run vertical
 run platform
 run course
-echo "telemetry and figures in out/ (e2e_*.csv, e2e_*.png); service log out/planner_server.log"
+# The backflip's robot (the scenario's actuators_file) differs: the service is restarted on it.
+stop_planner_server
+start_planner_server "$BIN" "$PORT" "$(pwd)/out/plan_cache_57nm.sqlite" \
+  out/planner_server_57nm.yaml out/planner_server_57nm.log actuators-57nm.yaml
+# The backflip is not verified in Simbody yet (issue 17, docs/backflip.md): the service refuses
+# its plan and the robot stands. Its run is shown, but its outcome does not set the exit status
+# until the flip works; the line below says which it was.
+backflip_status=$status
+run backflip
+if [ "$status" -eq 3 ] && [ "$backflip_status" -ne 3 ]; then
+  echo "backflip: not counted in the exit status (issue 17: not yet verified in Simbody)"
+  status=$backflip_status
+fi
+echo "telemetry and figures in out/ (e2e_*.csv, e2e_*.png; the backflip's knees over the take-off:"
+echo "  out/e2e_backflip_knees.png); service logs out/planner_server*.log"
 echo "pictures of the runs: out/e2e_<scenario>_snapshots.png (snapshot strip), out/e2e_<scenario>.gif"
 echo "  (animation), out/e2e_<scenario>.html (3D replay: open it in a browser, works offline)"
 exit "$status"

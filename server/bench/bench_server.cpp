@@ -635,11 +635,12 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
 
 // --- 2. cold plans with verification -------------------------------------------------------
 json benchCold(const std::filesystem::path& dir, int plans, std::chrono::milliseconds deadline,
-               const std::string& name, bool verification = true) {
+               const std::string& name, bool verification = true, bool sagittal = true) {
   auto config = baseConfig(dir);
   config.cache.path.clear();  // every request cold
   config.deadlines.max_s = 120.0;
   config.verification.enabled = verification;
+  config.verification.sagittal_model = sagittal;
   Server server(config, dir, name);
   wj::client::ClientOptions o;
   o.target = server.target();
@@ -668,6 +669,7 @@ json benchCold(const std::filesystem::path& dir, int plans, std::chrono::millise
   json j = latencyJson(ms);
   j["deadline_ms"] = deadline.count();
   j["verification_enabled"] = verification;
+  j["sagittal_model"] = sagittal;
   j["answered"] = ok;
   j["feasible"] = feasible;
   j["verified"] = verified;
@@ -922,6 +924,8 @@ int main(int argc, char** argv) {
       out["hit_breakdown"] = benchHitBreakdown(dir, breakdown_iterations);
     if (only.empty() || only == "cold") {
       out["cold_plan_with_verification"] = benchCold(dir, cold_plans, 60s, "cold");
+      out["cold_plan_with_verification_full_model"] =
+          benchCold(dir, cold_plans, 60s, "coldfull", true, false);
       out["cold_plan_150ms_deadline"] = benchCold(dir, cold_plans, 150ms, "cold150");
       out["cold_plan_150ms_deadline_no_verification"] =
           benchCold(dir, cold_plans, 150ms, "cold150nv", false);

@@ -345,6 +345,7 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
     r.read("default_candidates", v.default_candidates);
     r.read("max_candidates", v.max_candidates);
     r.read("budget_fraction", v.budget_fraction);
+    r.read("sagittal_model", v.sagittal_model);
     r.read("max_apex_height_error_m", v.max_apex_height_error_m);
     r.read("max_touchdown_dx_error_m", v.max_touchdown_dx_error_m);
     r.read("max_touchdown_pitch_error_rad", v.max_touchdown_pitch_error_rad);
@@ -462,6 +463,7 @@ std::string ServerConfig::toYaml() const {
     << "  default_candidates: " << verification.default_candidates << "\n"
     << "  max_candidates: " << verification.max_candidates << "\n"
     << "  budget_fraction: " << num(verification.budget_fraction) << "\n"
+    << "  sagittal_model: " << flag(verification.sagittal_model) << "\n"
     << "  max_apex_height_error_m: " << num(verification.max_apex_height_error_m) << "\n"
     << "  max_touchdown_dx_error_m: " << num(verification.max_touchdown_dx_error_m) << "\n"
     << "  max_touchdown_pitch_error_rad: " << num(verification.max_touchdown_pitch_error_rad)

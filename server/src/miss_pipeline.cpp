@@ -33,6 +33,16 @@ struct VerifyBatch {
 
 }  // namespace
 
+std::optional<std::size_t> choiceIsFinal(
+    const std::vector<std::optional<VerifierVerdict>>& verdicts,
+    const std::vector<bool>& feasible) {
+  for (std::size_t k = 0; k < verdicts.size(); ++k) {
+    if (!verdicts[k]) return std::nullopt;
+    if (verdicts[k]->passed && feasible[k]) return k;
+  }
+  return std::nullopt;
+}
+
 std::optional<std::size_t> chooseVerified(
     const std::vector<std::optional<VerifierVerdict>>& verdicts,
     const std::vector<bool>& feasible) {
@@ -117,7 +127,7 @@ MissPipeline::Verified MissPipeline::verifyTopK(const MissInputs& in,
       std::optional<VerifierVerdict> verdict;
       if (!batch->abandoned) {
         try {
-          verdict = verifier->verify((*shared_plans)[k], task);
+          verdict = verifier->verifyUnless((*shared_plans)[k], task, batch->abandoned);
         } catch (const std::exception& e) {
           verdict = VerifierVerdict{};
           verdict->reasons.push_back(std::string("verifier error: ") + e.what());
@@ -138,22 +148,30 @@ MissPipeline::Verified MissPipeline::verifyTopK(const MissInputs& in,
       ++batch->finished;
     }
   }
+  std::vector<bool> feasible;
+  for (const auto& c : result.candidates) feasible.push_back(c.evaluation.feasible);
   std::vector<std::optional<VerifierVerdict>> verdicts;
   {
+    // Until every verdict is in, or the choice is final: then the lower-ranked candidates still
+    // running are stopped, and only the verdicts the choice rests on (ranks 0..k) count, so
+    // that the answer does not depend on which of the others happened to finish.
     std::unique_lock lock(batch->mu);
-    while (batch->finished < batch->verdicts.size() && !*in.cancel && Clock::now() < in.budget_end)
+    std::optional<std::size_t> final_choice;
+    while (batch->finished < batch->verdicts.size() && !*in.cancel &&
+           Clock::now() < in.budget_end &&
+           !(final_choice = choiceIsFinal(batch->verdicts, feasible)))
       batch->cv.wait_until(lock,
                            std::min(in.budget_end, Clock::now() + std::chrono::milliseconds(20)));
+    if (!final_choice) final_choice = choiceIsFinal(batch->verdicts, feasible);
     batch->abandoned = true;
     verdicts = batch->verdicts;
+    if (final_choice) verdicts.resize(*final_choice + 1);
   }
   out.verify_ms = msBetween(t_verify, Clock::now());
   if (*in.cancel) {
     out.error = ServiceError(ErrorCode::Cancelled, "the call was cancelled");
     return out;
   }
-  std::vector<bool> feasible;
-  for (const auto& c : result.candidates) feasible.push_back(c.evaluation.feasible);
   const auto pick = chooseVerified(verdicts, feasible);
   if (!pick) {
     out.error = ServiceError(ErrorCode::DeadlineExceeded,

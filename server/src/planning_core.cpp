@@ -202,7 +202,11 @@ void PlanningCore::plan(PlanRequest request, std::shared_ptr<PlanCall> call) {
   std::optional<CachedSolution> hit = findHit(request, key);
   if (hit) {
     hits_.fetch_add(1);
-    submitHit(std::move(request), key, *hit, std::move(call), BoundedExecutor::Lane::Request);
+    // A hit is about 0.1 ms of work (the plan rebuilt at the caller's state), less than what
+    // the hand-off to the hit pool and back costs a caller: answered on the calling thread
+    // (the RPC's reactor). A hit that turns out not to be valid here is handed to the plan
+    // pool as before.
+    answerHit(request, key, *hit, call);
     return;
   }
   startComputation(std::move(request), key, std::move(call), BoundedExecutor::Lane::Request);
@@ -221,34 +225,38 @@ void PlanningCore::recordHotHit(double ms) {
   latency_[static_cast<std::size_t>(PlanSource::CacheHit)].record(ms);
 }
 
+void PlanningCore::answerHit(const PlanRequest& request, const CacheKey& key,
+                             const CachedSolution& solution,
+                             const std::shared_ptr<PlanCall>& call) {
+  if (call->completed()) return;
+  PlanOutcome o;
+  try {
+    o.answer = answerFromSolution(solution, request, key, PlanSource::CacheHit);
+  } catch (const std::exception& e) {
+    // The stored u is not valid at this caller's state (rare, at a bin edge): compute.
+    spdlog::debug("cache hit {} not valid at the request's state ({}); planning", key.hex(),
+                  e.what());
+    hits_.fetch_sub(1);
+    startComputation(request, key, call, BoundedExecutor::Lane::Internal);
+    return;
+  }
+  if (solution.feasible && !o.answer.evaluation.feasible) {
+    // Feasible where it was computed, infeasible at this caller's state (same bins, a
+    // slightly different v0 or posture, and a margin that was nearly zero): plan for this
+    // state instead of handing out a plan that would be refused.
+    spdlog::debug("cache hit {} infeasible at the request's state ({}); planning", key.hex(),
+                  o.answer.summary);
+    hits_.fetch_sub(1);  // counted as a hit on arrival; the computation counts its miss
+    startComputation(request, key, call, BoundedExecutor::Lane::Internal);
+    return;
+  }
+  finish(call, std::move(o));
+}
+
 void PlanningCore::submitHit(PlanRequest request, CacheKey key, CachedSolution solution,
                              std::shared_ptr<PlanCall> call, BoundedExecutor::Lane lane) {
   Task task;
-  task.run = [this, request, key, solution, call] {
-    if (call->completed()) return;
-    PlanOutcome o;
-    try {
-      o.answer = answerFromSolution(solution, request, key, PlanSource::CacheHit);
-    } catch (const std::exception& e) {
-      // The stored u is not valid at this caller's state (rare, at a bin edge): compute.
-      spdlog::debug("cache hit {} not valid at the request's state ({}); planning", key.hex(),
-                    e.what());
-      hits_.fetch_sub(1);
-      startComputation(request, key, call, BoundedExecutor::Lane::Internal);
-      return;
-    }
-    if (solution.feasible && !o.answer.evaluation.feasible) {
-      // Feasible where it was computed, infeasible at this caller's state (same bins, a
-      // slightly different v0 or posture, and a margin that was nearly zero): plan for this
-      // state instead of handing out a plan that would be refused.
-      spdlog::debug("cache hit {} infeasible at the request's state ({}); planning", key.hex(),
-                    o.answer.summary);
-      hits_.fetch_sub(1);  // counted as a hit on arrival; the computation counts its miss
-      startComputation(request, key, call, BoundedExecutor::Lane::Internal);
-      return;
-    }
-    finish(call, std::move(o));
-  };
+  task.run = [this, request, key, solution, call] { answerHit(request, key, solution, call); };
   task.abandon = [this, call] {
     finish(call, errorOutcome(ErrorCode::Unavailable, "the server is shutting down"));
   };

@@ -21,7 +21,18 @@ class SimPlanVerifier final : public PlanVerifier {
 
   VerifierVerdict verify(const planner::JumpPlan& plan,
                          const planner::JumpTask& task) const override {
-    const sim::VerificationReport r = verifier_.verify(plan, sim::scenarioForTask(task));
+    return toVerdict(verifier_.verify(plan, sim::scenarioForTask(task)));
+  }
+
+  std::optional<VerifierVerdict> verifyUnless(const planner::JumpPlan& plan,
+                                              const planner::JumpTask& task,
+                                              const std::atomic<bool>& stop) const override {
+    const auto r = verifier_.verifyUnless(plan, sim::scenarioForTask(task), stop);
+    if (!r) return std::nullopt;
+    return toVerdict(*r);
+  }
+
+  static VerifierVerdict toVerdict(const sim::VerificationReport& r) {
     VerifierVerdict v;
     v.passed = r.passed;
     for (const sim::FailureReason f : r.failures.toVector())
@@ -70,13 +81,18 @@ std::unique_ptr<PlanVerifier> makeSimVerifier(const model::RobotModel& robot,
     sim_text = readFile(config.sim_settings_file);
     settings.sim = sim::parseSimSettings(sim_text, config.sim_settings_file);
   }
+  settings.model = config.sagittal_model ? sim::VerificationModel::SagittalWhenSymmetric
+                                         : sim::VerificationModel::Full;
   settings.acceptance.max_apex_height_error_m = config.max_apex_height_error_m;
   settings.acceptance.max_touchdown_dx_error_m = config.max_touchdown_dx_error_m;
   settings.acceptance.max_touchdown_pitch_error_rad = config.max_touchdown_pitch_error_rad;
   // The sim's built-in defaults are covered by the version tag: bump it when they change.
   // v2: the executor lands with landing_kp 120 (was 60), which changes verdicts.
   // v3: the run ends once the robot has been at rest for settle_window_s (0.2 s).
-  std::uint64_t h = fnv1a64("wj::sim::Verifier v3");
+  // v4: verification.sagittal_model (the sagittal model's figures differ from the full one's
+  // by round-off).
+  std::uint64_t h = fnv1a64("wj::sim::Verifier v4");
+  h = fnv1a64(config.sagittal_model ? "sagittal" : "full", h);
   h = fnv1a64(sim_text, h);
   for (const double x : {config.max_apex_height_error_m, config.max_touchdown_dx_error_m,
                          config.max_touchdown_pitch_error_rad}) {

@@ -18,9 +18,11 @@
 #include "planner/jump_planner.h"
 #include "planner/plan_report.h"
 #include "planner/presets.h"
+#include "robot_model/momentum.h"
 #include "sim/statics.h"
 #include "sim/telemetry.h"
 #include "sim/verifier.h"
+#include "viz/knee_figure.h"
 #include "viz/replay_page.h"
 #include "viz/side_view.h"
 
@@ -67,6 +69,38 @@ void writePlanCsv(const std::filesystem::path& path, const pl::JumpPlan& plan) {
     for (const auto* m : {&plan.q, &plan.qd, &plan.tau})
       for (int j = 0; j < wj::model::kNumJoints; ++j) out << ',' << (*m)(k, j);
     out << '\n';
+  }
+}
+
+// Nose-up (about -y) angular momentum of the whole robot about its CoM, Simbody's against the
+// plan's (model::calcCentralAngularMomentum of the plan's pitch, pitch rate, q and qd) at
+// every telemetry sample inside the plan: where the flight's momentum is won or lost.
+void writeMomentumCsv(const std::filesystem::path& path, const wj::model::RobotModel& robot,
+                      const sm::TelemetryRecorder& recorder, const pl::JumpPlan& plan) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+  out << "t,h_sim,h_plan,pitch_rate_sim,pitch_rate_plan\n";
+  out.precision(8);
+  const auto noseUp = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& w,
+                          const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+    return -wj::model::calcCentralAngularMomentum(robot, R, w, q, qd).y();
+  };
+  Eigen::VectorXd q(wj::model::kNumJoints), qd(wj::model::kNumJoints);
+  for (const sm::TelemetrySample& s : recorder.samples()) {
+    const int k = static_cast<int>(std::lround(s.t / plan.dt));
+    if (k < 0 || k >= plan.numSamples()) continue;
+    for (int j = 0; j < wj::model::kNumJoints; ++j) {
+      q[j] = s.q[j];
+      qd[j] = s.qd[j];
+    }
+    const double h_sim = noseUp(s.q_WB.toRotationMatrix(), s.w_WB, q, qd);
+    const pl::PlanarState& c = plan.centroidal[k];
+    const Eigen::Matrix3d R_plan =
+        Eigen::AngleAxisd(-c.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const double h_plan = noseUp(R_plan, Eigen::Vector3d(0.0, -c.pitch_rate, 0.0),
+                                 plan.q.row(k).transpose(), plan.qd.row(k).transpose());
+    out << s.t << ',' << h_sim << ',' << h_plan << ',' << -s.w_WB.y() << ',' << c.pitch_rate
+        << '\n';
   }
 }
 
@@ -125,56 +159,6 @@ void plot(const std::filesystem::path& png, const std::filesystem::path& csv,
     throw std::runtime_error("gnuplot failed on " + script.string());
 }
 
-// The paper's backflip figure: the hind knee's (LH_KFE) joint velocity and torque over the
-// take-off, with its limits: the no-load speed, the peak torque and the torque-speed envelope
-// at the measured speed (dashed), and the planned torque. Written as `<png>` by gnuplot.
-void plotKnee(const std::filesystem::path& png, const std::filesystem::path& csv,
-              const pl::JumpPlan& plan, const wj::model::RobotModel& robot) {
-  const int knee = wj::model::jointIndex(Leg::LH, JointKind::KFE);
-  const auto& a = robot.joints()[knee].actuator;
-  const std::filesystem::path planned = png.string() + ".plan.dat";
-  {
-    std::ofstream out(planned);
-    for (int k = 0; k < plan.numSamples() && k * plan.dt <= plan.t2; ++k)
-      out << k * plan.dt << "," << plan.qd(k, knee) << "," << plan.tau(k, knee) << "\n";
-  }
-  // Telemetry columns (1-based): qd_* 38..53, tau_* 54..69, jointIndex order.
-  const int qd_col = 38 + knee, tau_col = 54 + knee;
-  std::ostringstream gp;
-  gp << "set terminal pngcairo size 1100,800 font ',10'\n"
-     << "set output '" << png.string() << "'\n"
-     << "set datafile separator ','\nset key outside right\nset grid\n"
-     << "set xrange [0:" << plan.t2 + 0.05 << "]\n"
-     << "peak = " << a.peak_torque_nm << "\ncorner = " << a.corner_speed_rad_s
-     << "\nnoload = " << a.no_load_speed_rad_s << "\n"
-     << "env(w) = abs(w) <= corner ? peak : (abs(w) >= noload ? 0 : peak * (noload - abs(w)) / "
-        "(noload - corner))\n"
-     << "set multiplot layout 2,1 title 'hind knee (LH\\_KFE) over the take-off: peak "
-     << a.peak_torque_nm << " Nm, no-load " << a.no_load_speed_rad_s << " rad/s'\n"
-     << "set arrow from " << plan.t1 << ", graph 0 to " << plan.t1
-     << ", graph 1 nohead dt 3 lc 'gray'\n"
-     << "set arrow from " << plan.t2 << ", graph 0 to " << plan.t2
-     << ", graph 1 nohead dt 3 lc 'gray'\n"
-     << "set ylabel 'joint velocity [rad/s]'\n"
-     << "plot '" << csv.string() << "' every ::1 using 1:" << qd_col << " w l lw 2 t 'simulated', '"
-     << planned.string()
-     << "' using 1:2 w l dt 4 t 'planned', noload dt 2 lc 'red' t 'no-load speed', -noload dt 2 "
-        "lc 'red' notitle\n"
-     << "set ylabel 'joint torque [Nm]'\nset xlabel 'time [s] (dotted: t1, t2 of the plan)'\n"
-     << "plot '" << csv.string() << "' every ::1 using 1:" << tau_col
-     << " w l lw 2 t 'simulated', '" << planned.string() << "' using 1:3 w l dt 4 t 'planned', '"
-     << csv.string() << "' every ::1 using 1:(env($" << qd_col
-     << ")) w l dt 2 lc 'red' t 'envelope at the speed', '' every ::1 using 1:(-env($" << qd_col
-     << ")) w l dt 2 lc 'red' notitle, peak dt 3 lc 'black' t 'peak torque', -peak dt 3 "
-        "lc 'black' notitle\n"
-     << "unset multiplot\n";
-  const std::filesystem::path script = png.string() + ".gp";
-  std::ofstream(script) << gp.str();
-  const std::string cmd = "gnuplot '" + script.string() + "'";
-  if (std::system(cmd.c_str()) != 0)
-    throw std::runtime_error("gnuplot failed on " + script.string());
-}
-
 // Signed distance of the lowest wheel to the terrain in the plan's predicted touchdown state
 // (CoM and pitch of plan.predicted.touchdown, posture q_landing): 0 if the predicted
 // touchdown is a first wheel contact, negative if the wheels would already be in the ground.
@@ -222,6 +206,17 @@ wj::viz::Recording makeRecording(const std::string& title, const sm::TelemetryRe
         {k * plan.dt, Eigen::Vector3d(plan.centroidal[k].x, 0.0, plan.centroidal[k].z)});
   rec.jump_start_t = 0.0;
   rec.touchdown_t = simulated.touchdown.t > 0.0 ? simulated.touchdown.t : plan.t3;
+  rec.liftoff_t = plan.t2;
+  if (plan.t2 - plan.t1 > plan.dt) rec.front_liftoff_t = plan.t1;
+  for (int k = 0; k < plan.numSamples(); ++k) {
+    wj::viz::PlannedJoints p;
+    p.t = k * plan.dt;
+    for (int j = 0; j < wj::model::kNumJoints; ++j) {
+      p.qd[j] = plan.qd(k, j);
+      p.tau[j] = plan.tau(k, j);
+    }
+    rec.planned_joints.push_back(p);
+  }
   return rec;
 }
 
@@ -260,7 +255,12 @@ int main(int argc, char** argv) {
   app.add_option("--plan-csv", plan_csv_path,
                  "write the plan's dense samples here (t, CoM x z pitch vx vz pitch_rate, q, qd, "
                  "tau in the telemetry's joint order)");
-  app.add_option("--plot", plot_path, "write a PNG figure here (gnuplot)");
+  std::string momentum_csv_path;
+  app.add_option("--momentum-csv", momentum_csv_path,
+                 "write the angular momentum about the CoM here, Simbody's against the plan's "
+                 "(t, h_sim, h_plan, pitch rates; nose-up positive)");
+  app.add_option("--plot", plot_path,
+                 "write a PNG figure here (gnuplot; a backflip: the knees over the take-off)");
   app.add_option("--snapshots", pictures.strip,
                  "write a snapshot strip here (PNG: the robot from take-off to landing)");
   app.add_option("--gif", pictures.gif, "write a side-view animation of the run here (GIF)");
@@ -296,22 +296,23 @@ int main(int argc, char** argv) {
     sm::TelemetryRecorder recorder;
     const sm::VerificationReport v = verifier.verify(r.plan, scenario, recorder.callback());
     if (!plan_csv_path.empty()) writePlanCsv(plan_csv_path, r.plan);
+    if (!momentum_csv_path.empty()) writeMomentumCsv(momentum_csv_path, robot, recorder, r.plan);
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";
     if (!csv_path.empty()) {
       std::ofstream out(csv_path);
       if (!out) throw std::runtime_error("cannot write " + csv_path);
       recorder.writeCsv(out);
     }
-    if (!plot_path.empty()) {
-      if (sc.task.isBackflip())
-        plotKnee(plot_path, csv_path, r.plan, robot);
-      else
+    if (!plot_path.empty() || pictures.any()) {
+      const wj::viz::Recording rec =
+          makeRecording("sim_jump --task " + task, recorder, r.plan, scenario, v.measured);
+      // A backflip's figure is the paper's: the knees over the take-off with their limits.
+      if (sc.task.isBackflip() && !plot_path.empty())
+        wj::viz::writeKneeFigure(robot, rec, plot_path);
+      else if (!plot_path.empty())
         plot(plot_path, csv_path, r.plan, robot);
+      writePictures(pictures, robot, rec);
     }
-    if (pictures.any())
-      writePictures(
-          pictures, robot,
-          makeRecording("sim_jump --task " + task, recorder, r.plan, scenario, v.measured));
 
     const pl::JumpOutcome& p = r.evaluation.predicted;
     const pl::JumpOutcome& s = v.measured;

@@ -4,7 +4,9 @@
 // presets) the planner runs once (seeded, one thread); its best `--candidates` distinct
 // candidates become plans as the server builds them and each is verified `--runs` times with
 // the verifier's default settings; with `--compare` also once with the reference settings
-// (VerifierSettings::reference()), and the verdicts and measured quantities are compared.
+// (VerifierSettings::reference()), and the verdicts and measured quantities are compared; with
+// `--compare-models` also once on the full 3-D model (VerificationModel::Full, same
+// integrator) against the default (the sagittal model for these symmetric plans), timed too.
 // Prints JSON.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -61,7 +63,8 @@ nlohmann::json eventJson(const wj::planner::JumpEvent& e) {
 nlohmann::json reportJson(const sm::VerificationReport& r) {
   nlohmann::json failures = nlohmann::json::array();
   for (const sm::FailureReason f : r.failures.toVector()) failures.push_back(sm::toString(f));
-  return {{"passed", r.passed},
+  return {{"model", r.model == sm::SimModel::Sagittal ? "sagittal" : "full"},
+          {"passed", r.passed},
           {"failures", failures},
           {"simulated_s", r.final_time_s},
           {"settled_early", r.settled_early},
@@ -71,6 +74,8 @@ nlohmann::json reportJson(const sm::VerificationReport& r) {
           {"touchdown", eventJson(r.measured.touchdown)},
           {"max_envelope_ratio", r.max_envelope_ratio},
           {"max_speed_ratio", r.max_speed_ratio},
+          {"final_roll_rad", r.final_roll_rad},
+          {"final_angular_speed_rad_s", r.final_angular_speed_rad_s},
           {"min_obstacle_clearance", r.measured.min_obstacle_clearance},
           {"final_pitch_rad", r.final_pitch_rad},
           {"final_base_height_m", r.final_base_height_m}};
@@ -79,7 +84,8 @@ nlohmann::json reportJson(const sm::VerificationReport& r) {
 // The largest absolute differences of the measured quantities between two reports.
 struct Differences {
   double event_pos_m = 0.0, event_vel_m_s = 0.0, event_pitch_rad = 0.0, event_t_s = 0.0;
-  double envelope_ratio = 0.0, final_pitch_rad = 0.0, final_height_m = 0.0;
+  double envelope_ratio = 0.0, speed_ratio = 0.0, clearance_m = 0.0, final_pitch_rad = 0.0;
+  double final_roll_rad = 0.0, final_height_m = 0.0, final_angular_speed_rad_s = 0.0;
   void add(const sm::VerificationReport& a, const sm::VerificationReport& b) {
     const auto event = [&](const pl::JumpEvent& x, const pl::JumpEvent& y) {
       event_t_s = std::max(event_t_s, std::abs(x.t - y.t));
@@ -94,15 +100,29 @@ struct Differences {
     event(a.measured.touchdown, b.measured.touchdown);
     envelope_ratio =
         std::max(envelope_ratio, std::abs(a.max_envelope_ratio - b.max_envelope_ratio));
+    speed_ratio = std::max(speed_ratio, std::abs(a.max_speed_ratio - b.max_speed_ratio));
+    const double ca = a.measured.min_obstacle_clearance, cb = b.measured.min_obstacle_clearance;
+    if (ca != cb) clearance_m = std::max(clearance_m, std::abs(ca - cb));  // inf == inf: none
+    final_roll_rad = std::max(final_roll_rad, std::abs(a.final_roll_rad - b.final_roll_rad));
+    final_angular_speed_rad_s =
+        std::max(final_angular_speed_rad_s,
+                 std::abs(a.final_angular_speed_rad_s - b.final_angular_speed_rad_s));
     final_pitch_rad = std::max(final_pitch_rad, std::abs(a.final_pitch_rad - b.final_pitch_rad));
     final_height_m =
         std::max(final_height_m, std::abs(a.final_base_height_m - b.final_base_height_m));
   }
   nlohmann::json toJson() const {
-    return {{"event_position_m", event_pos_m},      {"event_velocity_m_s", event_vel_m_s},
-            {"event_pitch_rad", event_pitch_rad},   {"event_time_s", event_t_s},
-            {"envelope_ratio", envelope_ratio},     {"final_pitch_rad", final_pitch_rad},
-            {"final_base_height_m", final_height_m}};
+    return {{"event_position_m", event_pos_m},
+            {"event_velocity_m_s", event_vel_m_s},
+            {"event_pitch_rad", event_pitch_rad},
+            {"event_time_s", event_t_s},
+            {"envelope_ratio", envelope_ratio},
+            {"speed_ratio", speed_ratio},
+            {"obstacle_clearance_m", clearance_m},
+            {"final_pitch_rad", final_pitch_rad},
+            {"final_roll_rad", final_roll_rad},
+            {"final_base_height_m", final_height_m},
+            {"final_angular_speed_rad_s", final_angular_speed_rad_s}};
   }
 };
 
@@ -113,7 +133,7 @@ int main(int argc, char** argv) {
   int standing = 10, candidates = 2, runs = 3;
   std::uint64_t seed = 7;
   std::vector<std::string> presets = pl::presetNames();
-  bool compare = false;
+  bool compare = false, compare_models = false, full_only = false;
   app.add_option("--standing", standing, "bench_server's cold requests (0..n-1)")
       ->capture_default_str();
   app.add_option("--presets", presets, "planner presets (none: --presets '')");
@@ -125,6 +145,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--seed", seed, "planner seed")->capture_default_str();
   app.add_flag("--compare", compare, "also verify with VerifierSettings::reference()");
+  app.add_flag("--full-model", full_only,
+               "verify on the full 3-D model only (VerificationModel::Full), e.g. for callgrind");
+  app.add_flag("--compare-models", compare_models,
+               "also verify on the full 3-D model (VerificationModel::Full)");
   CLI11_PARSE(app, argc, argv);
   presets.erase(std::remove(presets.begin(), presets.end(), std::string()), presets.end());
 
@@ -134,12 +158,17 @@ int main(int argc, char** argv) {
   for (int i = 0; i < standing; ++i) cases.push_back(standingCase(robot, i));
   for (const auto& name : presets) cases.push_back(pl::makePreset(planner, name));
 
-  const sm::Verifier verifier(robot, sm::VerifierSettings{});
+  sm::VerifierSettings settings;
+  if (full_only) settings.model = sm::VerificationModel::Full;
+  const sm::Verifier verifier(robot, settings);
   const sm::Verifier reference(robot, sm::VerifierSettings::reference());
+  sm::VerifierSettings full_settings;
+  full_settings.model = sm::VerificationModel::Full;
+  const sm::Verifier full(robot, full_settings);
   nlohmann::json out, rows = nlohmann::json::array();
-  std::vector<double> wall_all, cpu_all, ref_cpu_all, simulated_all;
-  int verdicts_same = 0, compared = 0;
-  Differences diff;
+  std::vector<double> wall_all, cpu_all, ref_cpu_all, full_cpu_all, simulated_all;
+  int verdicts_same = 0, compared = 0, models_same = 0, models_compared = 0, sagittal_runs = 0;
+  Differences diff, model_diff;
   for (const pl::Scenario& sc : cases) {
     pl::PlanOptions o;
     o.seed = seed;
@@ -186,6 +215,29 @@ int main(int argc, char** argv) {
                             {"differences", one.toJson()},
                             {"report", reportJson(ref)}};
       }
+      sagittal_runs += report.model == sm::SimModel::Sagittal ? 1 : 0;
+      if (compare_models) {
+        std::vector<double> full_cpu;
+        sm::VerificationReport f;
+        for (int i = 0; i < runs; ++i) {
+          const double c0 = threadCpuMs();
+          f = full.verify(plan, scenario);
+          full_cpu.push_back(threadCpuMs() - c0);
+        }
+        full_cpu_all.push_back(median(full_cpu));
+        ++models_compared;
+        const bool same = f.passed == report.passed &&
+                          f.failures.toVector() == report.failures.toVector() &&
+                          f.reasons.size() == report.reasons.size();
+        models_same += same ? 1 : 0;
+        model_diff.add(report, f);
+        Differences one;
+        one.add(report, f);
+        row["full_model"] = {{"cpu_ms", median(full_cpu)},
+                             {"same_verdict", same},
+                             {"differences", one.toJson()},
+                             {"report", reportJson(f)}};
+      }
       rows.push_back(row);
     }
   }
@@ -193,6 +245,13 @@ int main(int argc, char** argv) {
   out["median_wall_ms"] = median(wall_all);
   out["median_cpu_ms"] = median(cpu_all);
   out["median_simulated_s"] = median(simulated_all);
+  out["sagittal_runs"] = sagittal_runs;
+  if (compare_models) {
+    out["full_model_median_cpu_ms"] = median(full_cpu_all);
+    out["models_compared"] = models_compared;
+    out["models_same_verdicts"] = models_same;
+    out["models_largest_differences"] = model_diff.toJson();
+  }
   if (compare) {
     out["reference_median_cpu_ms"] = median(ref_cpu_all);
     out["compared"] = compared;

@@ -52,6 +52,16 @@ void ExecutorSettings::validate() const {
   requireNonNegative(hind_pitch_kp, "hind_pitch_kp");
   requireNonNegative(hind_pitch_kd, "hind_pitch_kd");
   requireNonNegative(hind_pitch_max_nm, "hind_pitch_max_nm");
+  if (!(touchdown_pitch_placement >= 0.0 && touchdown_pitch_placement <= 1.0))
+    throw std::invalid_argument("executor settings: touchdown_pitch_placement must be in [0, 1]");
+  requireNonNegative(touchdown_placement_max_rad, "touchdown_placement_max_rad");
+  requireNonNegative(touchdown_placement_lead_s, "touchdown_placement_lead_s");
+  requireNonNegative(touchdown_placement_band_up_rad, "touchdown_placement_band_up_rad");
+  requireNonNegative(touchdown_placement_band_down_rad, "touchdown_placement_band_down_rad");
+  requireNonNegative(landing_pitch_limit_rad, "landing_pitch_limit_rad");
+  requireNonNegative(landing_pitch_kp, "landing_pitch_kp");
+  requireNonNegative(landing_pitch_kd, "landing_pitch_kd");
+  requireNonNegative(landing_pitch_max_nm, "landing_pitch_max_nm");
 }
 
 std::string checkPlan(const planner::JumpPlan& plan) {
@@ -98,6 +108,10 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
       break;
     }
   }
+  // The plan's apex: the first sample after take-off whose CoM no longer rises.
+  int k_apex = k2;
+  while (k_apex < plan.numSamples() - 1 && plan.centroidal[k_apex].vz > 0.0) ++k_apex;
+  t_apex_ = k_apex * plan.dt;
   hind_only_ = plan.t2 - plan.t1 > 2.0 * plan.dt;
   // The lifted front pair carries no ground force: its HAA and wheel torques are zero (its
   // HFE and KFE brake from their speeds at t1).
@@ -128,6 +142,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
     if (airborne_ && phase_ == JumpPhase::Flight && t >= brake_end_t_) {
       phase_ = JumpPhase::Landing;
       landing_start_ = t;
+      placement_td_ = calcPlacementOffset(t);
     }
     last_contact_t_ = t;
   } else if (t - last_contact_t_ >= settings_.airborne_debounce_s - 1e-12) {
@@ -144,6 +159,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
   if (phase_ == JumpPhase::Flight && t >= plan_.t3 + settings_.max_flight_overrun_s) {
     phase_ = JumpPhase::Landing;
     landing_start_ = t;
+    placement_td_ = calcPlacementOffset(t);
   }
 
   const Eigen::Matrix3d R_WB = sensors.imu.q_WB.toRotationMatrix();
@@ -181,6 +197,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
           c.kd = settings_.flight_kd;
         }
       }
+      addHfeOffset(calcPlacementOffset(t), out);
       return;
     }
     case JumpPhase::Landing: {
@@ -216,6 +233,8 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
                landing_feedforward_[j]};
         }
       }
+      addHfeOffset((1.0 - s) * placement_td_, out);
+      addLandingPitchBrake(R_WB * sensors.imu.omega_B, out);
       return;
     }
   }
@@ -233,6 +252,49 @@ void PlanExecutor::addHindPitchFeedback(double t, const Eigen::Vector3d& omega_W
       std::clamp(settings_.hind_pitch_kp * e + settings_.hind_pitch_kd * e_rate, -max, max);
   for (const model::Leg leg : {model::Leg::LH, model::Leg::RH})
     out[model::jointIndex(leg, model::JointKind::Wheel)].tau_ff += dtau;
+}
+
+double PlanExecutor::calcPlacementOffset(double t) const {
+  if (settings_.touchdown_pitch_placement == 0.0) return 0.0;
+  // The plan's pitch is relative to the pitch at the start of the take-off; its dense
+  // references reach touchdown (t3), and the plan's touchdown pitch holds after it.
+  const int n = plan_.numSamples();
+  const int k = std::clamp(static_cast<int>(std::lround(t / plan_.dt)), 0, n - 1);
+  const double raw = (pitch_ - pitch0_) - plan_.centroidal[k].pitch;
+  const double up = settings_.touchdown_placement_band_up_rad;
+  const double down = settings_.touchdown_placement_band_down_rad;
+  const double error = raw > up ? raw - up : raw < -down ? raw + down : 0.0;
+  const double max = settings_.touchdown_placement_max_rad;
+  const double ramp_end = std::max(t_apex_, plan_.t3 - settings_.touchdown_placement_lead_s);
+  const double w =
+      ramp_end > t_apex_ ? std::clamp((t - t_apex_) / (ramp_end - t_apex_), 0.0, 1.0) : 1.0;
+  return w * std::clamp(settings_.touchdown_pitch_placement * error, -max, max);
+}
+
+void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
+                                        model::JointCommands& out) const {
+  const double over = pitch_ - settings_.landing_pitch_limit_rad;  // absolute nose-up pitch
+  if (over <= 0.0 || (settings_.landing_pitch_kp == 0.0 && settings_.landing_pitch_kd == 0.0))
+    return;
+  const double rate = -omega_W.y();  // nose-up positive
+  const double dtau =
+      std::clamp(-(settings_.landing_pitch_kp * over + settings_.landing_pitch_kd * rate),
+                 -settings_.landing_pitch_max_nm, 0.0);
+  for (int leg = 0; leg < model::kNumLegs; ++leg)
+    out[model::jointIndex(static_cast<model::Leg>(leg), model::JointKind::Wheel)].tau_ff += dtau;
+}
+
+void PlanExecutor::addHfeOffset(double offset, model::JointCommands& out) const {
+  if (offset == 0.0) return;
+  // A nose-up body swings its legs forward in the world; a positive HFE swings them back
+  // (models/wheeljump.urdf), so the nose-up error is added.
+  const double margin = settings_.joint_limit_margin_rad;
+  for (int leg = 0; leg < model::kNumLegs; ++leg) {
+    const int j = model::jointIndex(static_cast<model::Leg>(leg), model::JointKind::HFE);
+    const model::JointSpec& spec = model_.joints()[j];
+    out[j].q_des =
+        std::clamp(out[j].q_des + offset, spec.lower_rad + margin, spec.upper_rad - margin);
+  }
 }
 
 void PlanExecutor::blendToLanding(double t, model::JointCommands& out) const {

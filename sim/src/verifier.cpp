@@ -10,6 +10,7 @@
 
 #include "contact_law.h"
 #include "sim/statics.h"
+#include "sim/symmetry.h"
 
 namespace wj::sim {
 
@@ -100,6 +101,30 @@ double wheelGap(const model::RobotModel& model, const RobotPlacement& p, const T
   for (const auto& c : centers)
     gap = std::min(gap, calcTerrainDistance(terrain, p.X_WB * c) - model.wheelRadius());
   return gap;
+}
+
+// True when every right-leg column of `m` (N x 16, or empty) is mirrorSign() times its left
+// mirror joint's, to round-off.
+bool mirroredColumns(const Eigen::MatrixXd& m) {
+  if (m.size() == 0) return true;
+  if (m.cols() != model::kNumJoints) return false;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    if (isLeftJoint(j)) continue;
+    const auto r = m.col(j);
+    const auto l = m.col(mirrorJoint(j));
+    for (Eigen::Index k = 0; k < m.rows(); ++k)
+      if (std::abs(r[k] - mirrorSign(j) * l[k]) > 1e-9 * (1.0 + std::abs(r[k]) + std::abs(l[k])))
+        return false;
+  }
+  return true;
+}
+
+// The plan commands the right legs as the mirror image of the left ones.
+bool isSymmetric(const planner::JumpPlan& plan) {
+  return mirroredColumns(plan.q_initial.transpose()) &&
+         mirroredColumns(plan.q_landing.transpose()) && mirroredColumns(plan.q) &&
+         mirroredColumns(plan.qd) && mirroredColumns(plan.tau) && mirroredColumns(plan.knots.q) &&
+         mirroredColumns(plan.knots.qd) && mirroredColumns(plan.knots.tau);
 }
 
 }  // namespace
@@ -206,6 +231,7 @@ Verifier::Verifier(model::RobotModel model, VerifierSettings settings)
     : model_(std::move(model)), settings_(std::move(settings)) {
   settings_.sim.validate();
   settings_.executor.validate();
+  symmetric_robot_ = findAsymmetry(model_).empty();
 }
 
 VerificationReport Verifier::verify(const planner::JumpPlan& plan, const Scenario& scenario,
@@ -238,8 +264,9 @@ class VerificationRun {
   // False (and the verdict) when the initial state does not put the wheels on the terrain.
   bool place(SimRobot& robot, const InitialState& initial);
   // Runs the plan until the executor is done, the stop time, the robot at rest or a
-  // simulation error.
-  void simulate(SimRobot& robot, PlanExecutor& executor, const TelemetryCallback& telemetry);
+  // simulation error; false when `stop` (may be null) was set first.
+  bool simulate(SimRobot& robot, PlanExecutor& executor, const TelemetryCallback& telemetry,
+                const std::atomic<bool>* stop);
   // The verdict, most fundamental first.
   void judge();
 
@@ -394,8 +421,8 @@ void VerificationRun::recordContacts(const GroundTruth& gt) {
   if (gt.legs_in_contact) first_leg_contact_ = std::min(first_leg_contact_, t);
 }
 
-void VerificationRun::simulate(SimRobot& robot, PlanExecutor& executor,
-                               const TelemetryCallback& telemetry) {
+bool VerificationRun::simulate(SimRobot& robot, PlanExecutor& executor,
+                               const TelemetryCallback& telemetry, const std::atomic<bool>* stop) {
   const double stop_time = plan_.t3 + settings_.executor.max_flight_overrun_s +
                            settings_.executor.landing_duration_s + 1.0;
   model::SensorData sensors;
@@ -430,6 +457,7 @@ void VerificationRun::simulate(SimRobot& robot, PlanExecutor& executor,
         break;
       }
     }
+    if (stop && stop->load(std::memory_order_relaxed)) return false;
     robot.write(commands);
     try {
       robot.advance();
@@ -445,6 +473,7 @@ void VerificationRun::simulate(SimRobot& robot, PlanExecutor& executor,
   recordFinalState(gt, pitch_);
   r_.base_contact = first_base_contact_ < kInf;
   r_.leg_contact = first_leg_contact_ < kInf;
+  return true;
 }
 
 void VerificationRun::judgeDrives() {
@@ -541,18 +570,55 @@ void VerificationRun::judge() {
 VerificationReport Verifier::verify(const planner::JumpPlan& plan, const InitialState& initial,
                                     const Scenario& scenario,
                                     const TelemetryCallback& telemetry) const {
-  VerificationReport r;
+  return *verifyOn(plan, initial, scenario, telemetry, nullptr);
+}
+
+std::optional<VerificationReport> Verifier::verifyUnless(const planner::JumpPlan& plan,
+                                                         const Scenario& scenario,
+                                                         const std::atomic<bool>& stop) const {
+  return verifyOn(plan, initialStateFromPlan(model_, plan), scenario, {}, &stop);
+}
+
+std::optional<VerificationReport> Verifier::verifyOn(const planner::JumpPlan& plan,
+                                                     const InitialState& initial,
+                                                     const Scenario& scenario,
+                                                     const TelemetryCallback& telemetry,
+                                                     const std::atomic<bool>* stop) const {
   if (const std::string problem = checkPlan(plan); !problem.empty()) {
+    VerificationReport r;
     Verdict(r).fail(FailureReason::InvalidPlan, "invalid plan: " + problem);
     return r;
   }
   SimSettings sim_settings = settings_.sim;
   sim_settings.terrain = scenario.terrain;
-  SimRobot robot(model_, sim_settings);
+  const bool sagittal = settings_.model == VerificationModel::SagittalWhenSymmetric &&
+                        symmetric_robot_ && findAsymmetry(sim_settings).empty() &&
+                        isSymmetric(plan);
+  if (sagittal) {
+    try {
+      return run(plan, initial, scenario, telemetry, SimModel::Sagittal, stop);
+    } catch (const AsymmetryError&) {
+      // An asymmetric initial state (refused before the first step), or commands that break
+      // the symmetry (a telemetry callback then sees the run restart at t = 0): the full model.
+    }
+  }
+  return run(plan, initial, scenario, telemetry, SimModel::Full, stop);
+}
+
+std::optional<VerificationReport> Verifier::run(const planner::JumpPlan& plan,
+                                                const InitialState& initial,
+                                                const Scenario& scenario,
+                                                const TelemetryCallback& telemetry, SimModel kind,
+                                                const std::atomic<bool>* stop) const {
+  VerificationReport r;
+  r.model = kind;
+  SimSettings sim_settings = settings_.sim;
+  sim_settings.terrain = scenario.terrain;
+  SimRobot robot(model_, sim_settings, kind);
   VerificationRun run(model_, settings_, plan, scenario, sim_settings.gravity_m_s2, r);
   if (!run.place(robot, initial)) return r;
   PlanExecutor executor(model_, plan, settings_.executor, sim_settings.gravity_m_s2);
-  run.simulate(robot, executor, telemetry);
+  if (!run.simulate(robot, executor, telemetry, stop)) return std::nullopt;
   run.judge();
   return r;
 }

@@ -1,10 +1,12 @@
 // The robot description: the URDF read through urdfdom must carry the paper's figures.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 
+#include "robot_model/momentum.h"
 #include "robot_model/robot_model.h"
 
 namespace wj::model {
@@ -84,6 +86,41 @@ TEST(RobotModel, CompositeInertiaClosedForm) {
   Eigen::VectorXd q2 = q;
   q2[jointIndex(Leg::LF, JointKind::Wheel)] = 1.3;
   EXPECT_TRUE(m.calcCompositeInertia(q2).com.isApprox(I.com, 1e-12));
+}
+
+TEST(RobotModel, CentralAngularMomentumClosedForm) {
+  const RobotModel m = loadModel();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(kNumJoints);
+  for (const Leg leg : kLegs) {
+    q[jointIndex(leg, JointKind::HFE)] = 1.0;
+    q[jointIndex(leg, JointKind::KFE)] = -2.0;
+  }
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(-2.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d w(0.3, -11.0, 0.2);
+  // Rigid (joints at rest): the composite inertia about the CoM times the body rate.
+  const Eigen::VectorXd rest = Eigen::VectorXd::Zero(kNumJoints);
+  const Eigen::Matrix3d I_W = R * m.calcCompositeInertia(q).inertia_com * R.transpose();
+  EXPECT_TRUE(calcCentralAngularMomentum(m, R, w, q, rest).isApprox(I_W * w, 1e-9));
+  // Base at rest, one wheel spinning: the wheel's own inertia about its axle (its CoM is on
+  // the axle, so the robot's CoM does not move).
+  Eigen::VectorXd qd = Eigen::VectorXd::Zero(kNumJoints);
+  const int wheel = jointIndex(Leg::LH, JointKind::Wheel);
+  qd[wheel] = 25.0;
+  const JointSpec& js = m.joints()[wheel];
+  const Eigen::Isometry3d X_BL = m.calcLinkPoses(q)[js.child_link];
+  const Eigen::Matrix3d R_WL = R * X_BL.linear();
+  const Eigen::Vector3d spin_W = R_WL * js.axis * qd[wheel];
+  const Eigen::Vector3d H_wheel =
+      R_WL * m.links()[js.child_link].inertia.inertia_com * R_WL.transpose() * spin_W;
+  EXPECT_TRUE(
+      calcCentralAngularMomentum(m, R, Eigen::Vector3d::Zero(), q, qd).isApprox(H_wheel, 1e-6));
+  // Linear in (w, qd): a knee swing adds its own part to the rigid body's.
+  Eigen::VectorXd knee = Eigen::VectorXd::Zero(kNumJoints);
+  knee[jointIndex(Leg::LF, JointKind::KFE)] = 20.0;
+  const Eigen::Vector3d sum = calcCentralAngularMomentum(m, R, w, q, rest) +
+                              calcCentralAngularMomentum(m, R, Eigen::Vector3d::Zero(), q, knee);
+  EXPECT_TRUE(calcCentralAngularMomentum(m, R, w, q, knee).isApprox(sum, 1e-7));
+  EXPECT_GT(calcCentralAngularMomentum(m, R, Eigen::Vector3d::Zero(), q, knee).norm(), 0.05);
 }
 
 TEST(RobotModel, ForwardKinematicsOfTheWheel) {

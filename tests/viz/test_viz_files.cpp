@@ -2,11 +2,13 @@
 // animation with one image per planned frame, the page carries three.js and the run's data.
 #include <gtest/gtest.h>
 
+#include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "image_files.h"
 #include "synthetic_run.h"
 #include "viz/geometry.h"
+#include "viz/knee_figure.h"
 #include "viz/replay_page.h"
 #include "viz/side_view.h"
 
@@ -33,6 +35,84 @@ TEST(VizFiles, StripIsAWholePng) {
   EXPECT_EQ(info.width, 900);
   EXPECT_GE(info.height, 320);
   EXPECT_LT(std::filesystem::file_size(png), 600u * 1024u);
+}
+
+// The synthetic jump with the hind knees extending at 30 rad/s over the last 0.1 s of the push
+// (the front ones at rest), a plan of its own and a lift-off at 0.4 s.
+Recording kneeJump() {
+  Recording rec = testing::makeSyntheticJump(robot(), {});
+  rec.liftoff_t = 0.4;
+  rec.front_liftoff_t = 0.3;
+  for (Frame& f : rec.frames)
+    if (f.t >= 0.3 && f.t < 0.4)
+      for (const model::Leg leg : {model::Leg::LH, model::Leg::RH})
+        f.qd[model::jointIndex(leg, model::JointKind::KFE)] = 30.0;
+  for (int k = 0; k <= 50; ++k) {
+    PlannedJoints p;
+    p.t = 0.01 * k;
+    p.qd[model::jointIndex(model::Leg::LH, model::JointKind::KFE)] = 25.0;
+    p.tau[model::jointIndex(model::Leg::LH, model::JointKind::KFE)] = -20.0;
+    rec.planned_joints.push_back(p);
+  }
+  return rec;
+}
+
+TEST(VizFiles, KneeFigureWindowAndEnvelope) {
+  const Recording rec = kneeJump();
+  KneeFigureSettings s;
+  s.before_s = 0.05;
+  s.after_s = 0.1;
+  const KneeFigureLayout l = planKneeFigure(robot(), rec, s);
+  // From 0.05 s before the take-off (jump_start_t 0.2 s) to 0.1 s after the lift-off.
+  EXPECT_NEAR(l.t_begin, 0.15, 1e-12);
+  EXPECT_NEAR(l.t_end, 0.5, 1e-12);
+  EXPECT_EQ(l.joints[0], model::jointIndex(model::Leg::LF, model::JointKind::KFE));
+  EXPECT_EQ(l.joints[1], model::jointIndex(model::Leg::LH, model::JointKind::KFE));
+  EXPECT_EQ(l.frames, 176);  // 0.15 ... 0.5 s every 2 ms
+  // Front knees at rest under 30 Nm: inside the envelope's flat part.
+  const model::ActuatorEnvelope& a = robot().joints()[l.joints[1]].actuator;
+  EXPECT_NEAR(l.max_envelope_ratio[0], 30.0 / a.peak_torque_nm, 1e-12);
+  EXPECT_DOUBLE_EQ(l.max_abs_speed[0], 0.0);
+  // Hind knees: 30 Nm at 30 rad/s, where the linear fall of the envelope leaves
+  // peak (no_load - 30) / (no_load - corner).
+  const double limit_30 = a.peak_torque_nm * (a.no_load_speed_rad_s - 30.0) /
+                          (a.no_load_speed_rad_s - a.corner_speed_rad_s);
+  EXPECT_NEAR(l.max_envelope_ratio[1], 30.0 / limit_30, 1e-9);
+  EXPECT_DOUBLE_EQ(l.max_abs_speed[1], 30.0);
+}
+
+TEST(VizFiles, KneeFigureIsAWholePngWithItsData) {
+  const auto png = outDir() / "knees.png";
+  KneeFigureSettings s;
+  s.width_px = 800;
+  s.height_px = 900;
+  writeKneeFigure(robot(), kneeJump(), png, s);
+  const testing::ImageInfo info = testing::readPngInfo(testing::readBytes(png));
+  EXPECT_EQ(info.width, 800);
+  EXPECT_EQ(info.height, 900);
+  // The planned knee and the envelope polygon are written beside it for gnuplot.
+  std::ifstream plan(png.string() + ".plan.dat");
+  int rows = 0;
+  for (std::string line; std::getline(plan, line);) ++rows;
+  EXPECT_EQ(rows, 36);  // 0.15 ... 0.5 s every 10 ms
+  std::ifstream env(png.string() + ".envelope.dat");
+  int corners = 0;
+  for (std::string line; std::getline(env, line);) ++corners;
+  EXPECT_EQ(corners, 7);  // six corners, closed
+}
+
+TEST(VizFiles, KneeFigureRefusesBadSettingsByName) {
+  KneeFigureSettings s;
+  s.after_s = -1.0;
+  try {
+    planKneeFigure(robot(), kneeJump(), s);
+    FAIL() << "negative after_s accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("after_s"), std::string::npos) << e.what();
+  }
+  Recording empty = kneeJump();
+  empty.frames.resize(1);
+  EXPECT_THROW(planKneeFigure(robot(), empty, {}), std::invalid_argument);
 }
 
 TEST(VizFiles, GifHasOneImagePerPlannedFrame) {

@@ -9,11 +9,16 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "gnuplot.h"
 #include "viz/geometry.h"
 
 namespace wj::viz {
 
 namespace {
+
+using detail::quoted;
+using detail::runGnuplot;
+using detail::writeScript;
 
 // Axis-aligned bounds of what a picture shows, in (x, z).
 struct Bounds {
@@ -40,16 +45,6 @@ std::string rgb(double r, double g, double b) {
 std::string timeColour(int k, int n) {
   const double u = n > 1 ? static_cast<double>(k) / (n - 1) : 0.0;
   return rgb(0.12 + 0.70 * u, 0.37 - 0.12 * u, 0.75 - 0.55 * u);
-}
-
-// Text as a gnuplot double-quoted string (noenhanced mode): "\n" breaks the line.
-std::string quoted(const std::string& text) {
-  std::string s = "\"";
-  for (const char c : text) {
-    if (c == '"' || c == '\\') s += '\\';
-    s += c == '\n' ? std::string("\\n") : std::string(1, c);
-  }
-  return s + "\"";
 }
 
 std::string fixed(double v, int digits) {
@@ -112,23 +107,6 @@ void drawTerrain(std::ostream& gp, int& tag, const Recording& rec, const Bounds&
     gp << "set object " << tag++ << " rect from " << fixed(b.min.x(), 4) << ","
        << fixed(std::max(b.min.z(), 0.0), 4) << " to " << fixed(b.max.x(), 4) << ","
        << fixed(b.max.z(), 4) << " back fc rgb '#a07850' fs solid 1 border lc rgb '#5a4028'\n";
-}
-
-// Runs gnuplot on `script`; throws if it fails or `out` is not there afterwards.
-void runGnuplot(const std::filesystem::path& script, const std::filesystem::path& out) {
-  std::error_code ec;
-  std::filesystem::remove(out, ec);
-  const std::string cmd = "gnuplot '" + script.string() + "'";
-  if (std::system(cmd.c_str()) != 0)
-    throw std::runtime_error("gnuplot failed on " + script.string());
-  if (!std::filesystem::exists(out) || std::filesystem::file_size(out) == 0)
-    throw std::runtime_error("gnuplot wrote no " + out.string());
-}
-
-void writeScript(const std::filesystem::path& script, const std::string& text) {
-  std::ofstream f(script);
-  if (!f) throw std::runtime_error("cannot write " + script.string());
-  f << text;
 }
 
 double robotLength(const model::RobotModel& robot) {

@@ -67,6 +67,13 @@ void writePictures(const Options& opt, const wj::model::RobotModel& robot,
     if (!path->empty()) spdlog::info("wrote {}", *path);
 }
 
+// The knee figure's file beside --plot's: out/e2e_backflip.png -> out/e2e_backflip_knees.png.
+std::string kneeFigurePath(const std::string& plot) {
+  std::filesystem::path p(plot);
+  const std::string ext = p.has_extension() ? p.extension().string() : ".png";
+  return (p.parent_path() / (p.stem().string() + "_knees" + ext)).string();
+}
+
 int run(const Options& opt) {
   const rc::ClientSettings settings = rc::loadClientSettings(opt.config);
   const rc::ScenarioSettings& scenario = settings.scenario(opt.scenario);
@@ -101,7 +108,10 @@ int run(const Options& opt) {
   rc::ControlLoop loop(robot, settings, scenario, backend->robot(), controller, mpc,
                        requester.get(), backend->faults(), backend->rangeSensor());
   rc::RunRecorder recorder(robot, settings, scenario, opt.csv);
-  if (!opt.snapshots.empty() || !opt.gif.empty() || !opt.html.empty()) recorder.keepFrames();
+  // A two-step take-off (the backflip) also gets the knee figure beside --plot's.
+  const bool knee_figure = !opt.plot.empty() && scenario.mode == wj::planner::TakeoffMode::TwoStep;
+  if (!opt.snapshots.empty() || !opt.gif.empty() || !opt.html.empty() || knee_figure)
+    recorder.keepFrames();
 
   loop.initialise(backend->startPosition());
   mpc.start();
@@ -178,6 +188,7 @@ int run(const Options& opt) {
   else
     summary.printTable(std::cout);
   if (!opt.plot.empty()) recorder.plot(opt.plot, loop);
+  if (knee_figure) recorder.plotKnees(kneeFigurePath(opt.plot), loop, requester.get());
   writePictures(opt, robot, recorder.recording(loop, requester.get()));
   return summary.success ? 0 : 3;
 }
@@ -204,7 +215,9 @@ int main(int argc, char** argv) {
                  "sim backend: plant file (YAML, every key optional): how the simulated robot "
                  "differs from the model the controllers use (docs/sim.md, 'Plant')");
   app.add_option("--csv", opt.csv, "telemetry CSV file");
-  app.add_option("--plot", opt.plot, "figure (PNG, gnuplot)");
+  app.add_option("--plot", opt.plot,
+                 "figure (PNG, gnuplot); a two-step take-off (backflip) also writes the knees "
+                 "over the take-off to <name>_knees.png");
   app.add_option("--snapshots", opt.snapshots,
                  "snapshot strip of the jump (PNG: the robot from take-off to landing)");
   app.add_option("--gif", opt.gif, "side-view animation of the run (GIF)");

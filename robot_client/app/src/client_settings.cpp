@@ -154,6 +154,15 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
   e.landing_duration_s = m.number("landing_duration_s");
   e.airborne_debounce_s = m.number("airborne_debounce_s");
   e.max_flight_overrun_s = m.number("max_flight_overrun_s");
+  e.touchdown_pitch_placement = m.number("touchdown_pitch_placement");
+  e.touchdown_placement_max_rad = m.number("touchdown_placement_max_rad");
+  e.touchdown_placement_lead_s = m.number("touchdown_placement_lead_s");
+  e.touchdown_placement_band_up_rad = m.number("touchdown_placement_band_up_rad");
+  e.touchdown_placement_band_down_rad = m.number("touchdown_placement_band_down_rad");
+  e.landing_pitch_limit_rad = m.number("landing_pitch_limit_rad");
+  e.landing_pitch_kp = m.number("landing_pitch_kp");
+  e.landing_pitch_kd = m.number("landing_pitch_kd");
+  e.landing_pitch_max_nm = m.number("landing_pitch_max_nm");
   m.finish();
   return e;
 }
@@ -196,6 +205,7 @@ void ClientSettings::validate() const {
   inRange(contact.max_wheel_clearance_m, 0.001, 0.2, "contact.max_wheel_clearance_m");
   inRange(contact.settle_s, 0.0, 1.0, "contact.settle_s");
   inRange(planner.deadline_s, 0.01, 60.0, "planner.deadline_s");
+  inRange(planner.retries, 0.0, 5.0, "planner.retries");
   inRange(static_cast<double>(planner.max_evaluations), 0.0, 1e7, "planner.max_evaluations");
   if (planner.tls && planner.tls_root_ca_file.empty())
     throw std::invalid_argument(
@@ -253,6 +263,7 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     s.planner.deadline_s = m.number("deadline_s");
     s.planner.max_evaluations = static_cast<std::uint32_t>(m.unsignedInt("max_evaluations"));
     s.planner.seed = m.unsignedInt("seed");
+    s.planner.retries = static_cast<int>(std::min<std::uint64_t>(m.unsignedInt("retries"), 1000));
     s.planner.skip_verification = m.flag("skip_verification");
     const std::string format = m.text("trajectory_format");
     if (format != "knots" && format != "dense")

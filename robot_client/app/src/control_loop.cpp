@@ -14,6 +14,8 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // A range reading implying a base x this far from the estimate belongs to another object [m].
 constexpr double kRangeGate_m = 1.0;
+// First seed of the retries when the connection leaves the seed to the service (seed 0).
+constexpr std::uint64_t kRetrySeedBase = 1000;
 
 }  // namespace
 
@@ -31,7 +33,7 @@ ControlLoop::ControlLoop(const model::RobotModel& robot, const ClientSettings& s
       faults_(faults),
       range_(range),
       estimator_(robot, settings.estimator),
-      fsm_(scenario, settings.safety),
+      fsm_(scenario, settings.safety, settings.planner.retries),
       leg_{robot.legGeometry(model::Leg::LF).thigh_length,
            robot.legGeometry(model::Leg::LF).shank_length},
       takeoff_speed_(kNaN),
@@ -209,6 +211,10 @@ void ControlLoop::postPlanRequest() {
   r.event = scenario_.event;
   r.mode = scenario_.mode;
   r.accept_closest_approach = scenario_.accept_closest_approach;
+  // A retry asks for another search: the next seed after the connection's.
+  if (const int n = fsm_.planAttempt(); n > 0)
+    r.seed = (settings_.planner.seed != 0 ? settings_.planner.seed : kRetrySeedBase) +
+             static_cast<std::uint64_t>(n);
   r.has_obstacle = scenario_.has_wall;
   if (scenario_.has_wall) {
     // In J: the origin lies below the CoM at the start of take-off, the take-off point.
@@ -292,8 +298,10 @@ void ControlLoop::step() {
   in.speed = speed_;
   in.roll = roll_;
   in.pitch = pitch_;
+  // A request not posted yet (the worker still finishing the last one) is pending: the last
+  // answer's status is not this request's.
   if (requester_ != nullptr)
-    in.plan = requester_->status();
+    in.plan = pending_request_ ? PlanStatus::Pending : requester_->status();
   else
     in.plan = fsm_.mode() == Mode::Plan ? PlanStatus::Failed : PlanStatus::None;
   const sim::PlanExecutor* ex = executor();

@@ -51,9 +51,11 @@ std::string_view toString(Reason reason) {
     case Reason::NoPlanByDecisionPoint:
       return "no plan by the decision point";
     case Reason::PlanInfeasible:
-      return "plan infeasible";
+      return "no usable plan (infeasible, or refused by the service's verification)";
     case Reason::PlannerFailed:
       return "planner unreachable or failed";
+    case Reason::PlanRetry:
+      return "no usable plan, requested again";
     case Reason::Stopped:
       return "stopped";
     case Reason::EstimatorDiverged:
@@ -70,8 +72,9 @@ std::string_view toString(Reason reason) {
   return "?";
 }
 
-JumpStateMachine::JumpStateMachine(const ScenarioSettings& scenario, const SafetySettings& safety)
-    : scenario_(scenario), safety_(safety) {
+JumpStateMachine::JumpStateMachine(const ScenarioSettings& scenario, const SafetySettings& safety,
+                                   int plan_retries)
+    : scenario_(scenario), safety_(safety), plan_retries_(plan_retries) {
   takeoff_com_x_ = scenario_.has_wall
                        ? scenario_.wallX(0) - scenario_.takeoff_to_wall_m - scenario_.takeoff_lead_m
                        : 0.0;
@@ -117,6 +120,7 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
         if (standing_jump) {
           takeoff_com_x_ = in.com_x;
           out.request_plan = true;
+          plan_attempt_ = 0;
           enter(Mode::Plan, Reason::PlanRequested, in);
         } else {
           out.start_roll = true;
@@ -138,11 +142,19 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
                  std::abs(in.speed - scenario_.run_up_speed_m_s) < scenario_.speed_tolerance_m_s) {
         if (!scenario_.has_wall) takeoff_com_x_ = in.com_x;
         out.request_plan = true;
+        plan_attempt_ = 0;
         enter(Mode::Plan, Reason::RunUpSpeedReached, in);
       }
       break;
     case Mode::Plan:
-      if (in.plan == PlanStatus::Infeasible) {
+      if ((in.plan == PlanStatus::Infeasible || in.plan == PlanStatus::Failed) &&
+          plan_attempt_ < plan_retries_ && (!scenario_.has_wall || in.com_x < decisionComX())) {
+        // Another search (the next seed) from the state measured now; the decision point
+        // still bounds the wait.
+        ++plan_attempt_;
+        out.request_plan = true;
+        enter(Mode::Plan, Reason::PlanRetry, in);
+      } else if (in.plan == PlanStatus::Infeasible) {
         abort(Reason::PlanInfeasible);
       } else if (in.plan == PlanStatus::Failed) {
         abort(Reason::PlannerFailed);

@@ -56,7 +56,7 @@ v1::PlanJumpRequest makeRequest(const PlanRequestSnapshot& s, const PlannerConne
   }
   v1::ComputeBudget* b = r.mutable_budget();
   b->set_max_evaluations(c.max_evaluations);
-  b->set_seed(c.seed);
+  b->set_seed(s.seed != 0 ? s.seed : c.seed);
   b->set_skip_verification(c.skip_verification);
   r.set_trajectory_format(c.knots ? v1::TRAJECTORY_FORMAT_KNOTS : v1::TRAJECTORY_FORMAT_DENSE);
   std::ostringstream id;

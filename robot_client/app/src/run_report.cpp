@@ -12,6 +12,8 @@
 #include "robot_client/backends.h"
 #include "robot_client/plan_requester.h"
 #include "sim/sim_robot.h"
+#include "sim/verifier.h"
+#include "viz/knee_figure.h"
 
 namespace wj::robot_client {
 
@@ -61,7 +63,8 @@ RunRecorder::RunRecorder(const model::RobotModel& robot, const ClientSettings& s
       csv_ << "," << what << "_" << robot_.joints()[j].name;
   for (int leg = 0; leg < model::kNumLegs; ++leg)
     csv_ << ",fn_" << model::toString(static_cast<model::Leg>(leg));
-  csv_ << ",compute_us,true_x,true_z,true_vx,true_pitch,true_com_x,true_com_z,true_clearance\n";
+  csv_ << ",compute_us,true_x,true_z,true_vx,true_pitch,true_com_x,true_com_z,true_clearance,"
+          "true_body_contact\n";
 }
 
 void RunRecorder::drain(ControlLoop& loop) {
@@ -88,9 +91,9 @@ void RunRecorder::drain(ControlLoop& loop) {
     for (double f : s.contact_force) csv_ << "," << f;
     csv_ << "," << s.compute_us;
     if (have_truth_row_ && std::abs(truth_row_[0] - s.t) < 1e-9)
-      for (int i = 1; i < 8; ++i) csv_ << "," << truth_row_[i];
+      for (int i = 1; i < 9; ++i) csv_ << "," << truth_row_[i];
     else
-      csv_ << ",,,,,,,";
+      csv_ << ",,,,,,,,";
     csv_ << "\n";
   }
 }
@@ -104,15 +107,19 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
   const Eigen::Vector3d euler = nmpc::calcEulerAngles(R);  // roll, pitch, yaw (ZYX)
   const double roll = euler.x(), pitch = euler.y();
   have_truth_row_ = true;
-  truth_row_ = {
-      t_read,      p.x(),
-      p.z(),       gt.v_WB.x(),
-      pitch,       gt.p_WC.x(),
-      gt.p_WC.z(), std::isfinite(gt.obstacle_clearance_m) ? gt.obstacle_clearance_m : 99.0};
+  truth_row_ = {t_read, p.x(), p.z(), gt.v_WB.x(), pitch, gt.p_WC.x(), gt.p_WC.z(),
+                std::isfinite(gt.obstacle_clearance_m) ? gt.obstacle_clearance_m : 99.0,
+                // 1: the base touches the terrain, 2: a leg link does, 3: both
+                (gt.base_in_contact ? 1.0 : 0.0) + (gt.legs_in_contact ? 2.0 : 0.0)};
+  // Unwrapped from the first sample on; an upright robot starts within (-pi, pi].
+  truth_pitch_ = sim::calcUnwrappedPitch(R, truth_pitch_);
   if (m == Mode::Takeoff && std::isnan(truth_.takeoff_speed)) {
     truth_.takeoff_speed = gt.v_WC.x();
     truth_.takeoff_com_x = gt.p_WC.x();
+    takeoff_truth_pitch_ = truth_pitch_;
   }
+  if (std::isfinite(takeoff_truth_pitch_))
+    truth_.final_rotation = truth_pitch_ - takeoff_truth_pitch_;
   if (m == Mode::Flight && std::isnan(truth_.liftoff_vx)) {
     truth_.liftoff_vx = gt.v_WC.x();
     truth_.liftoff_vz = gt.v_WC.z();
@@ -122,8 +129,10 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
     truth_.apex_base_z = std::max(truth_.apex_base_z, p.z());
     truth_.apex_com_z = std::max(truth_.apex_com_z, gt.p_WC.z());
   }
-  if (m == Mode::Landing && std::isnan(truth_.touchdown_dx))
+  if (m == Mode::Landing && std::isnan(truth_.touchdown_dx)) {
     truth_.touchdown_dx = gt.p_WC.x() - truth_.takeoff_com_x;
+    truth_.touchdown_rotation = truth_pitch_ - takeoff_truth_pitch_;
+  }
   if (m == Mode::Roll && loop.stateMachine().rolledOn()) truth_.roll_on_speed = gt.v_WB.x();
   truth_.min_clearance = std::min(truth_.min_clearance, gt.obstacle_clearance_m);
   if (m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing) {
@@ -200,6 +209,7 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
       s.planned_liftoff_vx = info.predicted.takeoff.state.vx;
       s.planned_liftoff_vz = info.predicted.takeoff.state.vz;
       s.planned_liftoff_pitch_rate = info.predicted.takeoff.state.pitch_rate;
+      s.planned_touchdown_rotation = info.predicted.touchdown.state.pitch;
     }
   }
   for (int j = 0; j < model::kNumJoints; ++j) {
@@ -207,6 +217,7 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
     s.max_torque[kind] = std::max(s.max_torque[kind], loop.maxAbsTorque()[j]);
     s.torque_limit[kind] = robot_.joints()[j].actuator.peak_torque_nm;
   }
+  s.actuators_file = scenario_.actuators_file;
   if (err_n_ > 0) {
     truth_.est_pos_rms = std::sqrt(pos_err2_ / static_cast<double>(err_n_));
     truth_.est_vel_rms = std::sqrt(vel_err2_ / static_cast<double>(err_n_));
@@ -216,7 +227,11 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
   // Verdict.
   std::ostringstream v;
   if (loop.mode() == Mode::Damping) {
-    v << "damping mode (" << s.abort_reason << ")";
+    // After a jump the state machine keeps no abort reason; the transition into damping has it.
+    std::string why = s.abort_reason;
+    for (const Transition& t : transitions_)
+      if (t.to == Mode::Damping && why.empty()) why = std::string(toString(t.reason));
+    v << "damping mode (" << why << ")";
   } else if (!s.jumped) {
     v << "no jump: " << (s.abort_reason.empty() ? "run ended" : s.abort_reason);
     if (truth_.available && scenario_.has_wall) {
@@ -226,6 +241,11 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
     }
   } else {
     const bool upright = std::abs(truth_.final_pitch) < 0.3 && std::abs(truth_.final_roll) < 0.3;
+    // A flip (more than half a turn asked for) must have turned it: upright after no turn or
+    // after a turn too many is not the maneuver.
+    const bool flip = std::abs(scenario_.target_pitch_change_rad) > M_PI;
+    const bool turned =
+        !flip || std::abs(truth_.final_rotation - scenario_.target_pitch_change_rad) < 1.0;
     const bool stopped = loop.mode() == Mode::Stand;
     // Onto a platform: the base ends over it, at least its height above the ground.
     const bool platform = scenario_.landsOnWall();
@@ -250,13 +270,16 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
       s.success = stopped && (!roll_on || fsm.rolledOn());
       v << (stopped ? "jumped and stopped" : "jumped, not stopped");
     } else {
-      s.success = upright && stopped && cleared && rolled_on && !truth_.body_hit_ground;
+      s.success = upright && turned && stopped && cleared && rolled_on && !truth_.body_hit_ground;
       v << (platform    ? (cleared ? "landed on the platform" : "DID NOT LAND on the platform")
             : walls > 1 ? (cleared ? "cleared all " + std::to_string(walls) + " walls"
                                    : "DID NOT CLEAR all " + std::to_string(walls) + " walls (" +
                                          std::to_string(fsm.landings()) + " jumped)")
             : scenario_.has_wall ? (cleared ? "cleared the wall" : "DID NOT CLEAR the wall")
                                  : "jumped")
+        << (flip ? (turned ? ", turned " : ", DID NOT TURN as asked: ") +
+                       fmt(truth_.final_rotation, 2) + " rad"
+                 : std::string())
         << (upright ? ", landed upright" : ", NOT upright")
         << (truth_.body_hit_ground ? ", body touched the ground" : "")
         << (roll_on ? (rolled_on ? ", rolled on" : ", DID NOT ROLL ON") : "")
@@ -288,7 +311,9 @@ nlohmann::json RunSummary::toJson() const {
                {"predicted_touchdown_dx_m", num(planned_touchdown_dx)},
                {"predicted_liftoff_vx_m_s", num(planned_liftoff_vx)},
                {"predicted_liftoff_vz_m_s", num(planned_liftoff_vz)},
-               {"predicted_liftoff_pitch_rate_rad_s", num(planned_liftoff_pitch_rate)}};
+               {"predicted_liftoff_pitch_rate_rad_s", num(planned_liftoff_pitch_rate)},
+               {"predicted_touchdown_rotation_rad", num(planned_touchdown_rotation)}};
+  j["actuators_file"] = actuators_file;
   if (truth.available)
     j["simulated"] = {{"takeoff_speed_m_s", num(truth.takeoff_speed)},
                       {"apex_base_z_m", num(truth.apex_base_z)},
@@ -298,6 +323,8 @@ nlohmann::json RunSummary::toJson() const {
                       {"liftoff_vx_m_s", num(truth.liftoff_vx)},
                       {"liftoff_vz_m_s", num(truth.liftoff_vz)},
                       {"liftoff_pitch_rate_rad_s", num(truth.liftoff_pitch_rate)},
+                      {"touchdown_rotation_rad", num(truth.touchdown_rotation)},
+                      {"final_rotation_rad", num(truth.final_rotation)},
                       {"body_touched_ground", truth.body_hit_ground},
                       {"roll_on_speed_m_s", num(truth.roll_on_speed)},
                       {"final_x_m", truth.final_x},
@@ -345,6 +372,8 @@ void RunSummary::printTable(std::ostream& out) const {
   row("lift-off pitch rate [rad/s]", fmt(planned_liftoff_pitch_rate),
       fmt(truth.liftoff_pitch_rate));
   row("touchdown dx, CoM [m]", fmt(planned_touchdown_dx), fmt(truth.touchdown_dx));
+  row("rotation at touchdown [rad]", fmt(planned_touchdown_rotation),
+      fmt(truth.touchdown_rotation));
   if (service_verified_available)
     out << "  service's verification (from the plan's ideal start): apex base "
         << fmt(service_verified.apex.base_z) << " m, clearance "
@@ -357,6 +386,9 @@ void RunSummary::printTable(std::ostream& out) const {
   if (!plan_summary.empty())
     out << "  plan (target CoM height " << fmt(plan_target_height) << " m): " << plan_summary
         << "\n";
+  const int kfe = static_cast<int>(model::JointKind::KFE);
+  out << "  robot " << actuators_file << ": knee peak torque " << fmt(max_torque[kfe], 1)
+      << " of its " << fmt(torque_limit[kfe], 0) << " Nm limit\n";
   out << "  max |torque| per joint kind (limit):";
   for (int k = 0; k < model::kJointsPerLeg; ++k)
     out << "  " << kKindNames[k] << " " << fmt(max_torque[k], 1) << "/" << fmt(torque_limit[k], 0);
@@ -401,7 +433,31 @@ viz::Recording RunRecorder::recording(const ControlLoop& loop,
           {takeoff + k * plan.dt, Eigen::Vector3d(frames_takeoff_com_x_ + plan.centroidal[k].x, 0.0,
                                                   plan.centroidal[k].z)});
   }
+  if (requester != nullptr && requester->status() == PlanStatus::Feasible &&
+      std::isfinite(takeoff)) {
+    const planner::JumpPlan& plan = requester->plan();
+    rec.liftoff_t = takeoff + plan.t2;
+    if (plan.t2 - plan.t1 > plan.dt) rec.front_liftoff_t = takeoff + plan.t1;
+    for (int k = 0; k < plan.numSamples(); ++k) {
+      viz::PlannedJoints p;
+      p.t = takeoff + k * plan.dt;
+      for (int j = 0; j < model::kNumJoints; ++j) {
+        p.qd[j] = plan.qd(k, j);
+        p.tau[j] = plan.tau(k, j);
+      }
+      rec.planned_joints.push_back(p);
+    }
+  }
   return rec;
+}
+
+void RunRecorder::plotKnees(const std::string& png, const ControlLoop& loop,
+                            const PlanRequester* requester) const {
+  if (!std::isfinite(loop.takeoffTime()) || frames_.empty()) {
+    spdlog::warn("no knee figure {}: the robot did not jump", png);
+    return;
+  }
+  viz::writeKneeFigure(robot_, recording(loop, requester), png);
 }
 
 void RunRecorder::plot(const std::string& png, const ControlLoop& loop) const {

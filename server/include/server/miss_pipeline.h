@@ -51,6 +51,11 @@ struct MissResult {
 /// simulated; nullopt when no verdict arrived. `feasible[k]` is candidate k's feasibility.
 std::optional<std::size_t> chooseVerified(
     const std::vector<std::optional<VerifierVerdict>>& verdicts, const std::vector<bool>& feasible);
+/// The rank chooseVerified() takes whatever the verdicts still missing say: the first k whose
+/// verdict passed on a feasible candidate with every rank above it in; nullopt until then. The
+/// miss stops waiting for the lower ranks there.
+std::optional<std::size_t> choiceIsFinal(
+    const std::vector<std::optional<VerifierVerdict>>& verdicts, const std::vector<bool>& feasible);
 
 /// The pipeline of a miss. Immutable after construction except for the running estimate of one
 /// DE generation's wall time; run() is safe to call from several threads at once.

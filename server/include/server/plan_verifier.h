@@ -3,8 +3,10 @@
 /// depend on the simulator. The real implementation wraps wj::sim::Verifier (Simbody); servers
 /// built without the sim component have none and report verification as NOT_RUN.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -37,6 +39,14 @@ class PlanVerifier {
   /// ground, and the task's obstacle as a wall). Cannot be interrupted.
   virtual VerifierVerdict verify(const planner::JumpPlan& plan,
                                  const planner::JumpTask& task) const = 0;
+  /// As verify(), but may give up once `stop` is set: nullopt then. By default it cannot be
+  /// interrupted and runs to the end.
+  virtual std::optional<VerifierVerdict> verifyUnless(const planner::JumpPlan& plan,
+                                                      const planner::JumpTask& task,
+                                                      const std::atomic<bool>& stop) const {
+    (void)stop;
+    return verify(plan, task);
+  }
   /// Stable names of the reason codes in `bits`, e.g. "torque_limit".
   virtual std::vector<std::string> failureNames(std::uint32_t bits) const = 0;
   /// Hash of everything that decides a verdict (settings, acceptance), for the cache key.

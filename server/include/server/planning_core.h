@@ -173,6 +173,11 @@ class PlanningCore {
   std::uint64_t effectiveSeed(const PlanRequest& r) const;
   /// Records the outcome's statistics and completes the call.
   void finish(const std::shared_ptr<PlanCall>& call, PlanOutcome&& outcome);
+  /// Answers a hit on the calling thread: the plan rebuilt at the caller's state, or a
+  /// computation started when the stored solution is not valid or not feasible there.
+  void answerHit(const PlanRequest& request, const CacheKey& key, const CachedSolution& solution,
+                 const std::shared_ptr<PlanCall>& call);
+  /// answerHit() on the hit pool (the warm-up's hits).
   void submitHit(PlanRequest request, CacheKey key, CachedSolution solution,
                  std::shared_ptr<PlanCall> call, BoundedExecutor::Lane lane);
   void startComputation(PlanRequest request, CacheKey key, std::shared_ptr<PlanCall> call,

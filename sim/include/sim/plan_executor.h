@@ -60,6 +60,33 @@ struct ExecutorSettings {
   double hind_pitch_kp = 100.0;     ///< [Nm/rad]
   double hind_pitch_kd = 10.0;      ///< [Nm s/rad]
   double hind_pitch_max_nm = 10.0;  ///< [Nm] per wheel
+  /// Leg placement for the measured pitch: in the descent every leg's HFE reference is offset
+  /// by this fraction of the body pitch error (measured minus planned, nose-up positive), so
+  /// the legs meet the ground at the plan's angle in the world whatever the body's pitch. It
+  /// ramps in from the plan's apex to touchdown_placement_lead_s before touchdown (before the
+  /// apex the legs pass the obstacle as planned); the offset at touchdown is held through the
+  /// landing and fades with the hand-over blend. A
+  /// robot that touches down 0.2 rad more nose-up than planned (a payload forward) otherwise
+  /// lands its hind knees on the ground (docs/robust.md). 0: off (the plan's posture).
+  double touchdown_pitch_placement = 0.0;
+  double touchdown_placement_max_rad = 0.4;  ///< bound of that HFE offset [rad]
+  double touchdown_placement_lead_s = 0.05;  ///< the offset is whole this long before t3 [s]
+  /// Pitch errors inside [-band_down, band_up] are left to the plan [rad]. Nose-up is what
+  /// puts the hind knees on the ground; the nominal robot touches down 0.065 rad less nose-up
+  /// than its plan (the planner's take-off model, issue 22), which the nose-down band keeps
+  /// from moving its legs (docs/robust.md).
+  double touchdown_placement_band_up_rad = 0.0;
+  double touchdown_placement_band_down_rad = 0.1;  ///< see touchdown_placement_band_up_rad
+  /// Wheel braking against a wheelie in the landing: while the body is nose-up beyond
+  /// landing_pitch_limit_rad every wheel adds -(kp (pitch - limit) + kd pitch_rate), clamped
+  /// to [-landing_pitch_max_nm, 0], to its torque. A braking wheel pitches the body nose-down
+  /// (its reaction, and the ground's braking force below the CoM); a rear-heavy robot (a
+  /// payload behind) otherwise rose on its hind wheels to 0.69 rad after the landing and
+  /// tipped over (docs/robust.md). kp = kd = 0: off.
+  double landing_pitch_limit_rad = 0.4;
+  double landing_pitch_kp = 0.0;      ///< [Nm/rad]
+  double landing_pitch_kd = 0.0;      ///< [Nm s/rad]
+  double landing_pitch_max_nm = 8.0;  ///< [Nm] per wheel
 
   /// Throws std::invalid_argument naming the field when a value is out of range.
   void validate() const;
@@ -115,6 +142,12 @@ class PlanExecutor {
   // Adds the body pitch feedback of the hind-only push to the hind wheels' torques.
   void addHindPitchFeedback(double t, const Eigen::Vector3d& omega_W,
                             model::JointCommands& out) const;
+  // The HFE offset of the leg placement for the measured pitch (touchdown_pitch_placement).
+  double calcPlacementOffset(double t) const;
+  // Adds the landing's wheel braking against a wheelie to every wheel's torque.
+  void addLandingPitchBrake(const Eigen::Vector3d& omega_W, model::JointCommands& out) const;
+  // Adds `offset` to every leg's HFE reference, inside the joint range.
+  void addHfeOffset(double offset, model::JointCommands& out) const;
   // Flight references of a plan without flight samples (positions and speeds only).
   void blendToLanding(double t, model::JointCommands& out) const;
 
@@ -138,6 +171,8 @@ class PlanExecutor {
   /// load while the wheels are still near the ground [s].
   double brake_end_t_ = 0.0;
   double landing_start_ = std::numeric_limits<double>::infinity();
+  double placement_td_ = 0.0;  // HFE offset of the leg placement at touchdown [rad]
+  double t_apex_ = 0.0;        // the plan's apex: the CoM's vertical speed turns down [s]
   std::optional<LandingHandover> handover_;
 };
 

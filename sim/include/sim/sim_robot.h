@@ -4,7 +4,9 @@
 
 #include <Eigen/Geometry>
 #include <array>
+#include <cstdint>
 #include <memory>
+#include <stdexcept>
 
 #include "robot_model/robot_interface.h"
 #include "robot_model/robot_model.h"
@@ -58,6 +60,24 @@ struct IntegratorStats {
   long realizations = 0;     ///< evaluations of the dynamics by the integrator
 };
 
+/// Which multibody model a SimRobot builds.
+enum class SimModel : std::uint8_t {
+  Full,  ///< the 22-DoF robot
+  /// The robot restricted to motion symmetric about its sagittal plane: a planar base (x, z,
+  /// pitch) and the two left legs, each standing for itself and its right mirror image (double
+  /// mass, inertia, drive torque and contact force); 11 DoF. Exact for a mirror-symmetric
+  /// robot, simulation and commands (docs/sim.md, "The sagittal model"): the right legs'
+  /// readings and ground truth are the left legs' mirrored, roll, yaw and lateral motion zero.
+  Sagittal,
+};
+
+/// Thrown by a SimRobot built as SimModel::Sagittal when it is placed or commanded
+/// asymmetrically, which that model cannot represent.
+class AsymmetryError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 /// The 22-DoF robot (free base + 16 pin joints built from the RobotModel) with compliant
 /// wheel, base and leg contact, drives with PD law and torque-speed envelope, and an IMU at
 /// the base origin whose accelerometer reports the mean specific force over the last control
@@ -68,8 +88,10 @@ class SimRobot final : public model::RobotInterface {
  public:
   /// Builds the Simbody system from `model` (copied) and places the robot standing still at
   /// the origin with all joints at zero; call reset() to place it. Throws
-  /// std::invalid_argument if the settings are out of range.
-  SimRobot(const model::RobotModel& model, const SimSettings& settings);
+  /// std::invalid_argument if the settings are out of range, or for SimModel::Sagittal if the
+  /// robot or the simulation is not mirror-symmetric (findAsymmetry()).
+  SimRobot(const model::RobotModel& model, const SimSettings& settings,
+           SimModel kind = SimModel::Full);
   ~SimRobot() override;
   SimRobot(const SimRobot&) = delete;
   SimRobot& operator=(const SimRobot&) = delete;
@@ -94,7 +116,8 @@ class SimRobot final : public model::RobotInterface {
   /// evaluation per call; without it their flags and overlaps are still exact).
   void calcGroundTruth(GroundTruth& out, bool with_forces = true) const;
   /// Whole-robot mass, centre of mass and central inertia as Simbody computes them, in the
-  /// base frame (to compare with RobotModel::calcCompositeInertia).
+  /// base frame (to compare with RobotModel::calcCompositeInertia). Full model only (throws
+  /// std::logic_error for the sagittal one, whose merged legs have the wrong lateral moments).
   model::Inertia calcCompositeInertia() const;
   /// Kinetic + gravitational + elastic contact energy [J].
   double calcMechanicalEnergy() const;
@@ -104,6 +127,8 @@ class SimRobot final : public model::RobotInterface {
   const SimSettings& settings() const;
   /// The robot description it was built from.
   const model::RobotModel& model() const;
+  /// The multibody model it was built as.
+  SimModel kind() const;
 
  private:
   struct Impl;

@@ -11,8 +11,10 @@
 /// Determinism: same model, settings, plan and scenario give the same report, bit for bit.
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -99,8 +101,18 @@ struct AcceptanceCriteria {
 };
 
 /// Everything the verifier needs besides the robot and the plan.
+/// The multibody model a verification runs on.
+enum class VerificationModel : std::uint8_t {
+  /// SimModel::Sagittal (11 DoF, about half the work) when the robot, the simulation and the
+  /// plan are mirror-symmetric, which makes roll, yaw and lateral motion identically zero;
+  /// SimModel::Full otherwise (docs/sim.md, "The sagittal model").
+  SagittalWhenSymmetric,
+  Full,  ///< always SimModel::Full (22 DoF)
+};
+
 struct VerifierSettings {
-  SimSettings sim;                ///< physics (its terrain is replaced by the scenario's)
+  SimSettings sim;  ///< physics (its terrain is replaced by the scenario's)
+  VerificationModel model = VerificationModel::SagittalWhenSymmetric;  ///< see the enum
   ExecutorSettings executor;      ///< gains and timing of the plan execution
   AcceptanceCriteria acceptance;  ///< pass/fail bounds
 
@@ -146,6 +158,7 @@ struct JointMetrics {
 
 /// Verdict and measurements of one verification.
 struct VerificationReport {
+  SimModel model = SimModel::Full;   ///< the multibody model it ran on
   bool passed = false;               ///< no failure reason
   FailureSet failures;               ///< why it failed
   std::vector<std::string> reasons;  ///< one sentence per failure, in detection order
@@ -203,14 +216,34 @@ class Verifier {
                             const Scenario& scenario,
                             const TelemetryCallback& telemetry = {}) const;
 
+  /// As verify(plan, scenario), but gives up as soon as `stop` is set (checked every control
+  /// step): nullopt then.
+  std::optional<VerificationReport> verifyUnless(const planner::JumpPlan& plan,
+                                                 const Scenario& scenario,
+                                                 const std::atomic<bool>& stop) const;
+
   /// The robot description.
   const model::RobotModel& model() const { return model_; }
   /// The settings.
   const VerifierSettings& settings() const { return settings_; }
 
  private:
+  // One verification on `kind`; throws AsymmetryError when the sagittal model meets an
+  // asymmetric state or command.
+  // Nullopt when `stop` was set before the end.
+  std::optional<VerificationReport> run(const planner::JumpPlan& plan, const InitialState& initial,
+                                        const Scenario& scenario,
+                                        const TelemetryCallback& telemetry, SimModel kind,
+                                        const std::atomic<bool>* stop) const;
+  // verify() and verifyUnless(): the model chosen, the full one on an AsymmetryError.
+  std::optional<VerificationReport> verifyOn(const planner::JumpPlan& plan,
+                                             const InitialState& initial, const Scenario& scenario,
+                                             const TelemetryCallback& telemetry,
+                                             const std::atomic<bool>* stop) const;
+
   model::RobotModel model_;
   VerifierSettings settings_;
+  bool symmetric_robot_ = false;  // findAsymmetry(model_) is empty
 };
 
 /// One-shot form of Verifier::verify().

@@ -127,4 +127,49 @@ std::vector<SphereGroup> makeBoxSphereGroups(const model::RobotModel& model,
   return groups;
 }
 
+void keepSagittal(std::vector<GroundSphere>& ground_spheres, std::vector<SphereGroup>& groups) {
+  // A base sphere within this of y = 0 lies on the plane (the sphere grids put centres there
+  // up to round-off); the mirror images of the others are the same within round-off too.
+  constexpr double kOnPlane = 1e-12;
+  const auto right = [](int leg) {
+    return leg == static_cast<int>(model::Leg::RF) || leg == static_cast<int>(model::Leg::RH);
+  };
+  std::vector<GroundSphere> kept_spheres;
+  for (GroundSphere g : ground_spheres) {
+    if (g.part == Part::Base) {
+      if (g.center[1] < -kOnPlane) continue;
+      g.weight = g.center[1] > kOnPlane ? 2.0 : 1.0;
+    } else {
+      if (right(g.leg)) continue;
+      g.weight = 2.0;
+    }
+    kept_spheres.push_back(g);
+  }
+  ground_spheres = std::move(kept_spheres);
+  std::vector<SphereGroup> kept_groups;
+  for (SphereGroup& g : groups) {
+    if (g.part != Part::Base) {
+      if (right(g.leg)) continue;
+      g.weight = 2.0;
+      kept_groups.push_back(std::move(g));
+      continue;
+    }
+    // The base's spheres split into those off the plane (twice) and those on it (once).
+    SphereGroup off = g, on = g;
+    off.centers.clear();
+    on.centers.clear();
+    for (const Eigen::Vector3d& c : g.centers) {
+      if (c.y() > kOnPlane) off.centers.push_back(c);
+      if (std::abs(c.y()) <= kOnPlane) on.centers.push_back(c);
+    }
+    off.weight = 2.0;
+    for (SphereGroup* h : {&off, &on}) {
+      if (h->centers.empty()) continue;
+      finishBounds(*h);
+      kept_groups.push_back(std::move(*h));
+    }
+  }
+  groups = std::move(kept_groups);
+}
+
 }  // namespace wj::sim::detail

@@ -25,6 +25,7 @@ struct SphereGroup {
   double radius = 0.0;                                     // of each sphere
   Eigen::Vector3d bound_center = Eigen::Vector3d::Zero();  // bounding sphere, link frame
   double bound_radius = 0.0;
+  double weight = 1.0;  // groups it stands for: 2 for a left one and its mirror image
 };
 
 // A sphere fixed to a link, against the ground half-space.
@@ -34,6 +35,7 @@ struct GroundSphere {
   int leg = -1;             // 0..3 for wheels and knees
   SimTK::Vec3 center{0.0};  // in the link frame
   double radius = 0.0;
+  double weight = 1.0;  // spheres it stands for: 2 for a left one and its mirror image
 };
 
 /// The spheres against the ground: per leg the wheel (unless an ellipsoid, which Simbody's
@@ -45,5 +47,10 @@ std::vector<GroundSphere> makeGroundSpheres(const model::RobotModel& model,
 /// thigh and the shank.
 std::vector<SphereGroup> makeBoxSphereGroups(const model::RobotModel& model,
                                              const ContactSettings& cs);
+
+/// The spheres of a sagittal model (SimModel::Sagittal): the right legs' dropped (their left
+/// mirror images count twice), the base's on y > 0 counting twice, those on y = 0 once, those
+/// on y < 0 dropped.
+void keepSagittal(std::vector<GroundSphere>& ground_spheres, std::vector<SphereGroup>& groups);
 
 }  // namespace wj::sim::detail

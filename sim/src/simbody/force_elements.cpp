@@ -19,7 +19,7 @@ class SimRobot::Impl::GravityElement : public SimTK::Force::Custom::Implementati
       : impl_(impl), gravity_(0.0, 0.0, -impl.settings.gravity_m_s2) {}
   void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
                  SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector&) const override {
-    for (std::size_t b = 0; b < impl_.mobods.size(); ++b) {
+    for (const int b : impl_.bodies) {
       const SimTK::Vec3 p_CB_G = impl_.mobods[b].getBodyTransform(s).R() * impl_.link_com[b];
       const SimTK::Vec3 F_CB_G = impl_.link_mass[b] * gravity_;
       body_forces[impl_.mobods[b].getMobilizedBodyIndex()] +=
@@ -28,7 +28,7 @@ class SimRobot::Impl::GravityElement : public SimTK::Force::Custom::Implementati
   }
   SimTK::Real calcPotentialEnergy(const SimTK::State& s) const override {
     double pe = 0.0;
-    for (std::size_t b = 0; b < impl_.mobods.size(); ++b) {
+    for (const int b : impl_.bodies) {
       const SimTK::Vec3 p_G_CB = impl_.mobods[b].getBodyTransform(s) * impl_.link_com[b];
       pe -= impl_.link_mass[b] * (~gravity_ * p_G_CB);
     }
@@ -40,7 +40,8 @@ class SimRobot::Impl::GravityElement : public SimTK::Force::Custom::Implementati
   SimTK::Vec3 gravity_;  // in G [m/s^2]
 };
 
-// The drives: one Force::Custom applying tau_i to the mobility of each pin joint.
+// The drives: one Force::Custom applying tau_i to the mobility of each pin joint (sagittal:
+// twice a left joint's, for it and its mirror joint).
 class SimRobot::Impl::DriveElement : public SimTK::Force::Custom::Implementation {
  public:
   explicit DriveElement(const Impl& impl) : impl_(impl) {}
@@ -50,10 +51,12 @@ class SimRobot::Impl::DriveElement : public SimTK::Force::Custom::Implementation
     const SimTK::Vector& q = impl_.matter.getQ(s);
     const SimTK::Vector& u = impl_.matter.getU(s);
     for (int i = 0; i < model::kNumJoints; ++i) {
+      if (impl_.drive_weight[i] == 0.0) continue;
       const double tau =
           hold ? impl_.held_torque[i]
                : impl_.driveTorque(i, impl_.jointQ(q, i), impl_.jointU(u, i), nullptr);
-      mobility_forces[impl_.u_index[i]] += tau;  // = pins[i].applyOneMobilityForce()
+      // = pins[i].applyOneMobilityForce()
+      mobility_forces[impl_.u_index[i]] += impl_.drive_weight[i] * tau;
     }
   }
   SimTK::Real calcPotentialEnergy(const SimTK::State&) const override { return 0.0; }
@@ -72,13 +75,14 @@ class SimRobot::Impl::BoxElement : public SimTK::Force::Custom::Implementation {
     impl_.forEachBoxContact(s, [&](const SphereGroup& g, const detail::SphereContact& c) {
       const SimTK::MobilizedBody& mb = impl_.mobods[g.link];
       const SimTK::Vec3 station = ~mb.getBodyTransform(s) * toVec3(c.point);
-      mb.applyForceToBodyPoint(s, station, toVec3(c.force), body_forces);
+      mb.applyForceToBodyPoint(s, station, g.weight * toVec3(c.force), body_forces);
     });
   }
   SimTK::Real calcPotentialEnergy(const SimTK::State& s) const override {
     double pe = 0.0;
-    impl_.forEachBoxContact(
-        s, [&](const SphereGroup&, const detail::SphereContact& c) { pe += c.potential_energy; });
+    impl_.forEachBoxContact(s, [&](const SphereGroup& g, const detail::SphereContact& c) {
+      pe += g.weight * c.potential_energy;
+    });
     return pe;
   }
 
@@ -94,14 +98,16 @@ class SimRobot::Impl::GroundElement : public SimTK::Force::Custom::Implementatio
   void calcForce(const SimTK::State& s, SimTK::Vector_<SimTK::SpatialVec>& body_forces,
                  SimTK::Vector_<SimTK::Vec3>&, SimTK::Vector&) const override {
     impl_.forEachGroundContact(s, [&](const GroundSphere& g, const GroundContact& c) {
+      const SimTK::Vec3 force = g.weight * c.force;
       body_forces[impl_.mobods[g.link].getMobilizedBodyIndex()] +=
-          SimTK::SpatialVec(c.arm % c.force, c.force);
+          SimTK::SpatialVec(c.arm % force, force);
     });
   }
   SimTK::Real calcPotentialEnergy(const SimTK::State& s) const override {
     double pe = 0.0;
-    impl_.forEachGroundContact(
-        s, [&](const GroundSphere&, const GroundContact& c) { pe += c.potential_energy; });
+    impl_.forEachGroundContact(s, [&](const GroundSphere& g, const GroundContact& c) {
+      pe += g.weight * c.potential_energy;
+    });
     return pe;
   }
 

@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "sim/symmetry.h"
 #include "sim_robot_impl.h"
 
 namespace wj::sim {
@@ -36,7 +37,7 @@ void SimRobot::Impl::calcMassCenter(const SimTK::State& s, SimTK::Vec3& p_GC,
                                     SimTK::Vec3& v_GC) const {
   double mass = 0.0;
   SimTK::Vec3 com(0), com_v(0);
-  for (std::size_t b = 0; b < mobods.size(); ++b) {
+  for (const int b : bodies) {
     const SimTK::Transform& X_GB = mobods[b].getBodyTransform(s);
     const SimTK::SpatialVec& V_GB = mobods[b].getBodyVelocity(s);
     const SimTK::Vec3 r_G = X_GB.R() * link_com[b];  // body origin to body CoM, in G
@@ -46,6 +47,48 @@ void SimRobot::Impl::calcMassCenter(const SimTK::State& s, SimTK::Vec3& p_GC,
   }
   p_GC = com / mass;
   v_GC = com_v / mass;
+  if (kind == SimModel::Sagittal) {
+    // A leg and its mirror image have their centre of mass at y = 0, the base too
+    // (findAsymmetry()); the merged legs, built on the left, would put it at y > 0.
+    p_GC[1] = 0.0;
+    v_GC[1] = 0.0;
+  }
+}
+
+void SimRobot::Impl::checkSymmetric(const model::JointCommands& c) const {
+  const auto near = [](double a, double b) {
+    return a == b || std::abs(a - b) <= 1e-9 * (1.0 + std::abs(a) + std::abs(b));
+  };
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    if (isLeftJoint(i)) continue;
+    const model::JointCommand& r = c[i];
+    const model::JointCommand& l = c[mirrorJoint(i)];
+    const double sign = mirrorSign(i);
+    if (!near(r.q_des, sign * l.q_des) || !near(r.qd_des, sign * l.qd_des) ||
+        !near(r.tau_ff, sign * l.tau_ff) || !near(r.kp, l.kp) || !near(r.kd, l.kd))
+      throw AsymmetryError("SimRobot (sagittal): the command of " + model.joints()[i].name +
+                           " is not the mirror image of " + model.joints()[mirrorJoint(i)].name +
+                           "'s");
+  }
+}
+
+void SimRobot::Impl::checkSymmetric(const RobotPlacement& p) const {
+  constexpr double kTol = 1e-9;
+  const Eigen::Matrix3d& R = p.X_WB.linear();
+  const bool planar = std::abs(p.X_WB.translation().y()) <= kTol && std::abs(R(1, 0)) <= kTol &&
+                      std::abs(R(0, 1)) <= kTol && std::abs(R(1, 2)) <= kTol &&
+                      std::abs(R(2, 1)) <= kTol && std::abs(p.v_WB.y()) <= kTol &&
+                      std::abs(p.w_WB.x()) <= kTol && std::abs(p.w_WB.z()) <= kTol;
+  if (!planar) throw AsymmetryError("SimRobot (sagittal): the base is placed out of its plane");
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    if (isLeftJoint(i)) continue;
+    const int l = mirrorJoint(i);
+    if (std::abs(p.q[i] - mirrorSign(i) * p.q[l]) > kTol ||
+        std::abs(p.qd[i] - mirrorSign(i) * p.qd[l]) > kTol)
+      throw AsymmetryError("SimRobot (sagittal): " + model.joints()[i].name +
+                           " is placed other than as the mirror image of " +
+                           model.joints()[l].name);
+  }
 }
 
 double SimRobot::Impl::calcClearance(const SimTK::State& s) const {
@@ -66,8 +109,8 @@ double SimRobot::Impl::calcClearance(const SimTK::State& s) const {
 }
 
 //==============================================================================================
-SimRobot::SimRobot(const model::RobotModel& model, const SimSettings& settings)
-    : impl_(std::make_unique<Impl>(model, settings)) {}
+SimRobot::SimRobot(const model::RobotModel& model, const SimSettings& settings, SimModel kind)
+    : impl_(std::make_unique<Impl>(model, settings, kind)) {}
 SimRobot::~SimRobot() = default;
 SimRobot::SimRobot(SimRobot&&) noexcept = default;
 SimRobot& SimRobot::operator=(SimRobot&&) noexcept = default;
@@ -131,6 +174,7 @@ void SimRobot::read(model::SensorData& out) {
 
 void SimRobot::write(const model::JointCommands& commands) {
   Impl& m = *impl_;
+  if (m.kind == SimModel::Sagittal) m.checkSymmetric(commands);
   const double latency = m.settings.plant.motor_latency_s;
   if (latency > 0.0) {
     // Acts `latency` from now; a full ring (commands written faster than the periods pass)
@@ -215,12 +259,17 @@ void SimRobot::advance() {
 
 void SimRobot::reset(const RobotPlacement& placement) {
   Impl& m = *impl_;
+  if (m.kind == SimModel::Sagittal) m.checkSymmetric(placement);
   SimTK::State s = m.default_state;
   s.setTime(0.0);
-  m.mobods[0].setQToFitTransform(s, toTransform(placement.X_WB));
-  m.mobods[0].setUToFitVelocity(s,
-                                SimTK::SpatialVec(toVec3(placement.w_WB), toVec3(placement.v_WB)));
+  // The mobilizer's q and u fit its own frames: X_FM and V_FM (M moves with the base origin,
+  // F stands still on Ground).
+  const SimTK::Rotation& R_FG = ~m.base_X_GF.R();
+  m.mobods[0].setQToFitTransform(s, ~m.base_X_GF * toTransform(placement.X_WB) * m.base_X_BM);
+  m.mobods[0].setUToFitVelocity(
+      s, SimTK::SpatialVec(R_FG * toVec3(placement.w_WB), R_FG * toVec3(placement.v_WB)));
   for (int i = 0; i < model::kNumJoints; ++i) {
+    if (m.drive_weight[i] == 0.0) continue;  // sagittal: a right joint, its left one's mirror
     m.pins[i].setOneQ(s, 0, placement.q[i]);
     m.pins[i].setOneU(s, 0, placement.qd[i]);
   }
@@ -320,11 +369,22 @@ void SimRobot::calcGroundTruth(GroundTruth& out, bool with_forces) const {
   m.forEachBoxContact(s, [&](const SphereGroup& g, const detail::SphereContact& c) {
     record(g.part, g.leg, c.force, c.depth);
   });
+  if (m.kind == SimModel::Sagittal) {
+    // The right wheels' contacts are the left ones' mirror images.
+    for (const model::Leg leg : {model::Leg::RF, model::Leg::RH}) {
+      const int r = static_cast<int>(leg);
+      const WheelContact& left = out.wheels[r ^ 1];
+      out.wheels[r] = left;
+      out.wheels[r].force_W.y() = -left.force_W.y();
+    }
+  }
   out.obstacle_clearance_m = m.calcClearance(s);
 }
 
 model::Inertia SimRobot::calcCompositeInertia() const {
   const Impl& m = *impl_;
+  if (m.kind == SimModel::Sagittal)
+    throw std::logic_error("SimRobot::calcCompositeInertia: not available in the sagittal model");
   const SimTK::State& s = m.state();
   m.system.realize(s, SimTK::Stage::Position);
   const Eigen::Isometry3d X_WB = toEigen(m.mobods[0].getBodyTransform(s));
@@ -357,6 +417,10 @@ const SimSettings& SimRobot::settings() const {
 
 const model::RobotModel& SimRobot::model() const {
   return impl_->model;
+}
+
+SimModel SimRobot::kind() const {
+  return impl_->kind;
 }
 
 }  // namespace wj::sim

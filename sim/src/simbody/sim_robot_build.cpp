@@ -4,6 +4,7 @@
 #include <string>
 
 #include "sim/plant.h"
+#include "sim/symmetry.h"
 #include "sim_robot_impl.h"
 
 namespace wj::sim {
@@ -28,14 +29,24 @@ SimTK::Body::Rigid makeBody(const model::Inertia& in) {
 }  // namespace
 
 //==============================================================================================
-SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
+SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s, SimModel k)
     : model(m),
       settings(s),
+      kind(k),
       law(detail::makeContactLaw(s.contact)),
       matter(system),
       forces(system),
       rng(s.noise.seed) {
   settings.validate();
+  if (kind == SimModel::Sagittal) {
+    std::string why = findAsymmetry(model);
+    if (why.empty()) why = findAsymmetry(settings);
+    if (!why.empty())
+      throw std::invalid_argument(
+          "SimRobot: the sagittal model needs a mirror-symmetric robot "
+          "and simulation, but " +
+          why);
+  }
   const ContactSettings& cs = settings.contact;
   const SimTK::ContactMaterial material(cs.stiffness_pa, cs.dissipation_s_m, cs.static_friction,
                                         cs.dynamic_friction, cs.viscous_friction_s_m);
@@ -49,6 +60,7 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s)
   ground_law = detail::makeHertzCircularLaw(material, material, cs.transition_velocity_m_s);
   addGround(material, ellipsoid_wheels);
   buildTree();
+  mapJoints();
   addContactGeometry(material, ellipsoid_wheels);
   addDriveAndContactElements();
   makeDrives();
@@ -74,24 +86,47 @@ void SimRobot::Impl::addGround(const SimTK::ContactMaterial& material, bool elli
 void SimRobot::Impl::buildTree() {
   // A pin turns about z of its frames, so both frames are turned to put z on the URDF axis.
   const auto& links = model.links();
+  const bool sagittal = kind == SimModel::Sagittal;
   mobods.resize(links.size());
   // The plant's masses (PlantSettings): every link scaled, the payload on the base.
   const PlantSettings& plant = settings.plant;
-  mobods[0] = SimTK::MobilizedBody::Free(
-      matter.updGround(), SimTK::Transform(),
-      makeBody(addPointMass(scaleInertia(links[0].inertia, plant.link_mass_scale), plant.payload)),
-      SimTK::Transform());
+  const SimTK::Body::Rigid base_body =
+      makeBody(addPointMass(scaleInertia(links[0].inertia, plant.link_mass_scale), plant.payload));
+  if (sagittal) {
+    // Planar moves in x and y of its F frame and turns about z: F's x, y, z on Ground's x, z,
+    // -y makes the turn a nose-up pitch.
+    base_X_GF = base_X_BM = SimTK::Transform(SimTK::Rotation(SimTK::Pi / 2, SimTK::XAxis));
+    mobods[0] = SimTK::MobilizedBody::Planar(matter.updGround(), base_X_GF, base_body, base_X_BM);
+  } else {
+    mobods[0] = SimTK::MobilizedBody::Free(matter.updGround(), SimTK::Transform(), base_body,
+                                           SimTK::Transform());
+  }
+  bodies.push_back(0);
   // Links were appended parent-before-child by the loader.
   for (std::size_t li = 1; li < links.size(); ++li) {
     const model::JointSpec& j = model.joints()[links[li].parent_joint];
+    const int index = model::jointIndex(j.leg, j.kind);
+    if (sagittal && !isLeftJoint(index)) continue;
+    // Sagittal: the left link stands for itself and its mirror image (docs/sim.md).
+    const double mass_scale = plant.link_mass_scale * (sagittal ? 2.0 : 1.0);
     const SimTK::Rotation R_JA(SimTK::UnitVec3(toVec3(j.axis)), SimTK::ZAxis);
     const SimTK::Transform X_PF = toTransform(j.X_PJ) * SimTK::Transform(R_JA);
     const SimTK::Transform X_BM(R_JA);
     const SimTK::MobilizedBody::Pin pin(
-        mobods[j.parent_link], X_PF,
-        makeBody(scaleInertia(links[li].inertia, plant.link_mass_scale)), X_BM);
+        mobods[j.parent_link], X_PF, makeBody(scaleInertia(links[li].inertia, mass_scale)), X_BM);
     mobods[li] = pin;
-    pins[model::jointIndex(j.leg, j.kind)] = pin;
+    pins[index] = pin;
+    bodies.push_back(static_cast<int>(li));
+  }
+}
+
+void SimRobot::Impl::mapJoints() {
+  const bool sagittal = kind == SimModel::Sagittal;
+  for (int i = 0; i < model::kNumJoints; ++i) {
+    const bool mirrored = sagittal && !isLeftJoint(i);
+    if (mirrored) pins[i] = pins[mirrorJoint(i)];
+    joint_sign[i] = mirrored ? mirrorSign(i) : 1.0;
+    drive_weight[i] = mirrored ? 0.0 : (sagittal ? 2.0 : 1.0);
   }
 }
 
@@ -115,6 +150,7 @@ void SimRobot::Impl::addContactGeometry(const SimTK::ContactMaterial& material,
   }
   ground_spheres = detail::makeGroundSpheres(model, settings.contact, ellipsoid_wheels);
   groups = detail::makeBoxSphereGroups(model, settings.contact);
+  if (kind == SimModel::Sagittal) detail::keepSagittal(ground_spheres, groups);
 }
 
 void SimRobot::Impl::makeDrives() {
@@ -137,10 +173,12 @@ void SimRobot::Impl::realizeAndCache() {
     q_index[i] = pins[i].getFirstQIndex(default_state);
     u_index[i] = pins[i].getFirstUIndex(default_state);
   }
-  for (const SimTK::MobilizedBody& mb : mobods) {
-    const SimTK::MassProperties& mp = mb.getBodyMassProperties(default_state);
-    link_mass.push_back(mp.getMass());
-    link_com.push_back(mp.getMassCenter());
+  link_mass.assign(mobods.size(), 0.0);
+  link_com.assign(mobods.size(), SimTK::Vec3(0.0));
+  for (const int b : bodies) {
+    const SimTK::MassProperties& mp = mobods[b].getBodyMassProperties(default_state);
+    link_mass[b] = mp.getMass();
+    link_com[b] = mp.getMassCenter();
   }
 }
 

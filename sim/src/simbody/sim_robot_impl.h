@@ -25,13 +25,17 @@ struct SimRobot::Impl {
   class BoxElement;
   class GroundElement;
 
-  Impl(const model::RobotModel& m, const SimSettings& s);
+  Impl(const model::RobotModel& m, const SimSettings& s, SimModel k);
 
   // Construction steps (sim_robot_build.cpp), in the order Impl() takes them.
   // The ground half-space: its normal, and its surface for Simbody's tracker (ellipsoid wheels).
   void addGround(const SimTK::ContactMaterial& material, bool ellipsoid_wheels);
-  // Multibody tree: free base, then per leg HAA -> HFE -> KFE -> WHEEL pins.
+  // Multibody tree: free base, then per leg HAA -> HFE -> KFE -> WHEEL pins. Sagittal: planar
+  // base, and only the left legs, with double mass and inertia.
   void buildTree();
+  // Sagittal: each right joint read as its left mirror joint (jointQ, jointU), each left drive
+  // acting twice (DriveElement).
+  void mapJoints();
   // The contact geometry: ellipsoid wheels on Simbody's tracker, the ground spheres and the
   // sphere groups against the boxes.
   void addContactGeometry(const SimTK::ContactMaterial& material, bool ellipsoid_wheels);
@@ -55,8 +59,13 @@ struct SimRobot::Impl {
   }
   // Position and speed of joint i at state s, read from the matter subsystem's q and u by the
   // indices cached after realizeModel (MobilizedBody::getOneQ() looks them up per call).
-  double jointQ(const SimTK::Vector& q, int i) const { return q[q_index[i]]; }
-  double jointU(const SimTK::Vector& u, int i) const { return u[u_index[i]]; }
+  // Sagittal: a right joint is its left mirror joint times mirrorSign().
+  double jointQ(const SimTK::Vector& q, int i) const { return joint_sign[i] * q[q_index[i]]; }
+  double jointU(const SimTK::Vector& u, int i) const { return joint_sign[i] * u[u_index[i]]; }
+  // Sagittal: throws AsymmetryError unless the right commands mirror the left ones.
+  void checkSymmetric(const model::JointCommands& c) const;
+  // Sagittal: throws AsymmetryError unless the placement is planar and symmetric.
+  void checkSymmetric(const RobotPlacement& p) const;
   // Whole-robot centre of mass location p_GC and velocity v_GC in Ground, as
   // SimbodyMatterSubsystem::calcSystemMassCenter{Location,Velocity}InGround compute them
   // (same bodies, same order) with the mass properties cached and each body's pose and
@@ -80,6 +89,7 @@ struct SimRobot::Impl {
 
   model::RobotModel model;
   SimSettings settings;
+  SimModel kind = SimModel::Full;
   detail::ContactLaw law;
 
   SimTK::MultibodySystem system;
@@ -90,8 +100,16 @@ struct SimRobot::Impl {
   std::optional<SimTK::ContactTrackerSubsystem> tracker;
   std::optional<SimTK::CompliantContactSubsystem> contact;
 
-  std::vector<SimTK::MobilizedBody> mobods;  // per RobotModel link
+  std::vector<SimTK::MobilizedBody> mobods;  // per RobotModel link (sagittal: right ones empty)
+  std::vector<int> bodies;                   // the links built, parent before child
+  // The base mobilizer's frames: F on Ground, M on the base (identity for the free base).
+  SimTK::Transform base_X_GF, base_X_BM;
+  // Per joint: its pin (sagittal: a right joint's is its left mirror joint's), the sign that
+  // turns the pin's q and u into the joint's, and how many legs its drive torque acts for
+  // (sagittal: 2 on the left, 0 on the right).
   std::array<SimTK::MobilizedBody, model::kNumJoints> pins;
+  std::array<double, model::kNumJoints> joint_sign{};
+  std::array<double, model::kNumJoints> drive_weight{};
   std::array<int, model::kNumLegs> wheel_link{};
   std::vector<detail::SphereGroup> groups;
   std::vector<detail::GroundSphere> ground_spheres;

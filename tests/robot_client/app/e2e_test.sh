@@ -1,12 +1,15 @@
 #!/usr/bin/env bash
 # End-to-end tests of robot_client against a real planner_server on loopback (ctest "app.e2e.*").
-#   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort|platform|course
+#   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort|platform|course|backflip
 # forward: run-up, plan, jump over the 0.25 m wall through emulated CAN frames, land, roll on
 # at the run-up speed, stop.
 # vertical: the standing jump from the crouch, as high as the planner reaches (>= 0.58 m base
 # apex). platform: run-up, jump onto the 0.25 m platform, land on its top, roll on, stop there.
 # course: two 0.25 m walls 10 m apart (at 14 and 24 m, as shipped), both jumped without a stop
 # between them, then a stop.
+# backflip: from standing on the 57 Nm-knee robot (its own service): the planner's flip is asked
+# for and answered on that robot; the robot either flips (a full turn, upright, stopped) or,
+# while the service's Simbody check refuses the flip (docs/backflip.md), does not jump and stands.
 # abort: the service is unreachable; the robot must not jump and
 # must stop before the wall. The test configuration gives the planner a longer deadline and the
 # wall more run-up room than the shipped one, because CI machines are slower and shared.
@@ -31,7 +34,9 @@ sed -e "s|^  deadline_s: .*|  deadline_s: 6.0|" \
 grep -q "x_m: 20.0" "$WORK/client.yaml" || { echo "could not move the wall in the test config"; exit 1; }
 
 target="127.0.0.1:${PORT}"
-if [ "$CASE" != abort ]; then
+if [ "$CASE" = backflip ]; then
+  start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators-57nm.yaml
+elif [ "$CASE" != abort ]; then
   start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log"
 else
   target="127.0.0.1:1"  # nothing listens there
@@ -53,6 +58,22 @@ d = json.load(open(sys.argv[1])); case = sys.argv[2]; rc = int(sys.argv[3])
 def check(cond, what):
     if not cond:
         print("FAILED:", what); sys.exit(1)
+if case == "backflip":
+    check(d["actuators_file"] == "actuators-57nm.yaml", d["actuators_file"])
+    check(d["max_torque"]["KFE"]["limit_nm"] == 57.0, d["max_torque"]["KFE"])
+    check(abs(d["plan"]["predicted_touchdown_rotation_rad"] - 6.283) < 0.26,
+          f"no flip planned: {d['plan']['summary']}")
+    if d["jumped"]:
+        check(rc == 0 and d["success"], d["verdict"])
+        check(abs(d["simulated"]["final_rotation_rad"] - 6.283) < 0.5, d["verdict"])
+        check(d["simulated"]["body_touched_ground"] is False, "the body touched the ground")
+    else:
+        # The service's verification refused the flip: no jump, standing, not in damping.
+        check(rc == 3, f"exit status 3 expected without a jump, got {rc}")
+        check(d["plan"]["verification"] == "failed", d["plan"]["verification"])
+        check(d["final_mode"] == "STAND", d["final_mode"])
+        check(abs(d["simulated"]["final_pitch_rad"]) < 0.1, "not standing level")
+    print("OK", case); sys.exit(0)
 if case == "abort":
     check(rc == 3, f"exit status 3 expected, got {rc}")
     check(not d["jumped"], "the robot jumped without a plan")

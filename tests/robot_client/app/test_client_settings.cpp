@@ -114,6 +114,29 @@ TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
   EXPECT_THROW((void)parseClientSettings(fast, "x.yaml"), std::invalid_argument);
 }
 
+TEST(ClientSettings, PlanRetriesAndTheLandingFeedbacksAreReadAndBounded) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  EXPECT_EQ(s.planner.retries, 4);
+  EXPECT_DOUBLE_EQ(s.executor.touchdown_pitch_placement, 1.0);
+  EXPECT_DOUBLE_EQ(s.executor.landing_pitch_limit_rad, 0.4);
+  const std::string many = replace(shippedConfig(), "  retries: 4 ", "  retries: 9 ");
+  try {
+    (void)parseClientSettings(many, "x.yaml");
+    FAIL() << "accepted 9 retries";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("planner.retries"), std::string::npos) << e.what();
+  }
+  const std::string half =
+      replace(shippedConfig(), "touchdown_pitch_placement: 1.0", "touchdown_pitch_placement: 1.5");
+  try {
+    (void)parseClientSettings(half, "x.yaml");
+    FAIL() << "accepted a placement fraction of 1.5";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("touchdown_pitch_placement"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
   EXPECT_TRUE(s.scenario("platform").landsOnWall());
@@ -167,6 +190,19 @@ TEST(ClientSettings, ACourseListsItsWallsInOrder) {
   EXPECT_NE(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, far]"))
                 .find("course.wall.x_m' has the wrong type"),
             std::string::npos);
+}
+
+TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  const ScenarioSettings& flip = s.scenario("backflip");
+  EXPECT_EQ(flip.mode, planner::TakeoffMode::TwoStep);
+  EXPECT_NEAR(flip.target_pitch_change_rad, 2.0 * M_PI, 1e-3);
+  EXPECT_LT(flip.target_dx_m, 0.0);  // lands behind the start
+  EXPECT_DOUBLE_EQ(flip.run_up_speed_m_s, 0.0);
+  EXPECT_FALSE(flip.has_wall);
+  // The robot is chosen by configuration: the paper's 57 Nm knee (docs/backflip.md).
+  EXPECT_EQ(flip.actuators_file, "actuators-57nm.yaml");
+  EXPECT_EQ(s.scenario("forward").actuators_file, "actuators.yaml");
 }
 
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {

@@ -27,7 +27,7 @@ struct Drive {
   JumpStateMachine fsm;
   FsmInput in;
   int requests = 0, takeoffs = 0, brakes = 0, rolls = 0;
-  explicit Drive(const ScenarioSettings& s) : fsm(s, SafetySettings{}) {}
+  explicit Drive(const ScenarioSettings& s, int retries = 0) : fsm(s, SafetySettings{}, retries) {}
   FsmOutput tick(double dt = 0.01) {
     in.t += dt;
     in.com_x += in.speed * dt;
@@ -268,6 +268,54 @@ TEST(JumpStateMachine, InfeasiblePlanOrFailedPlannerAbortsAtOnce) {
               status == PlanStatus::Infeasible ? Reason::PlanInfeasible : Reason::PlannerFailed);
     EXPECT_LT(d.in.com_x, d.fsm.decisionComX());
   }
+}
+
+TEST(JumpStateMachine, RetriesRequestAgainWhileTheDecisionPointIsAheadThenAbort) {
+  Drive d(forward(), 2);
+  d.until(Mode::Roll, 1.0);
+  d.in.speed = 3.0;
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
+  EXPECT_EQ(d.requests, 1);
+  EXPECT_EQ(d.fsm.planAttempt(), 0);
+  // Two answers without a plan: each is followed by a new request, in PLAN.
+  for (const PlanStatus status : {PlanStatus::Infeasible, PlanStatus::Failed}) {
+    d.in.plan = status;
+    EXPECT_EQ(d.tick().mode, Mode::Plan);
+    d.in.plan = PlanStatus::Pending;  // what the requester says once the loop has posted
+    d.tick();
+  }
+  EXPECT_EQ(d.requests, 3);
+  EXPECT_EQ(d.fsm.planAttempt(), 2);
+  EXPECT_EQ(d.fsm.journal(d.fsm.journalCount() - 1).reason, Reason::PlanRetry);
+  // The retries are spent: the third infeasible answer aborts.
+  d.in.plan = PlanStatus::Infeasible;
+  EXPECT_EQ(d.tick().mode, Mode::Brake);
+  EXPECT_EQ(d.fsm.abortReason(), Reason::PlanInfeasible);
+  EXPECT_EQ(d.requests, 3);
+
+  // Past the decision point no retry is asked for, retries left or not.
+  Drive late(forward(), 2);
+  late.until(Mode::Roll, 1.0);
+  late.in.speed = 3.0;
+  ASSERT_TRUE(late.until(Mode::Plan, 5.0));
+  late.in.plan = PlanStatus::Failed;
+  late.in.speed = 0.0;
+  late.in.com_x = late.fsm.decisionComX();
+  EXPECT_EQ(late.tick().mode, Mode::Brake);
+  EXPECT_EQ(late.fsm.abortReason(), Reason::PlannerFailed);
+  EXPECT_EQ(late.requests, 1);
+
+  // A feasible answer after a retry jumps at the take-off point.
+  Drive ok(forward(), 1);
+  ok.until(Mode::Roll, 1.0);
+  ok.in.speed = 3.0;
+  ASSERT_TRUE(ok.until(Mode::Plan, 5.0));
+  ok.in.plan = PlanStatus::Infeasible;
+  ok.tick();
+  ok.in.plan = PlanStatus::Feasible;
+  ASSERT_TRUE(ok.until(Mode::Takeoff, 10.0));
+  EXPECT_GE(ok.in.com_x, ok.fsm.takeoffComX() - 1e-9);
+  EXPECT_EQ(ok.requests, 2);
 }
 
 TEST(JumpStateMachine, NeverReachingRunUpSpeedAbortsAtTheDecisionPoint) {

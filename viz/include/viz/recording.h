@@ -38,6 +38,13 @@ struct PathPoint {
   Eigen::Vector3d p = Eigen::Vector3d::Zero();  ///< [m], world frame
 };
 
+/// The plan's joint speeds and torques at one instant, on the frames' clock.
+struct PlannedJoints {
+  double t = 0.0;                               ///< [s]
+  std::array<double, model::kNumJoints> qd{};   ///< [rad/s]
+  std::array<double, model::kNumJoints> tau{};  ///< [Nm]
+};
+
 /// A run to draw. The ground plane z = 0 is always drawn.
 struct Recording {
   std::string title;                   ///< shown on every picture
@@ -48,6 +55,12 @@ struct Recording {
   /// unknown (the strip then spans the whole run).
   double jump_start_t = std::numeric_limits<double>::quiet_NaN();
   double touchdown_t = std::numeric_limits<double>::quiet_NaN();
+  /// The plan's lift-off (t2) and, for a two-step take-off, the front pair's (t1) [s]; NaN:
+  /// unknown or not a two-step take-off.
+  double liftoff_t = std::numeric_limits<double>::quiet_NaN();
+  double front_liftoff_t = std::numeric_limits<double>::quiet_NaN();
+  /// The plan's joint speeds and torques over the take-off (empty: none; the knee figure).
+  std::vector<PlannedJoints> planned_joints;
   /// What the frames are: "simulated" (ground truth), "estimated" (hardware) or "planned".
   std::string source = "simulated";
 

@@ -53,7 +53,11 @@ struct PlannerConnection {
   double deadline_s = 1.5;            ///< deadline of one PlanJump call [s]
   std::uint32_t max_evaluations = 0;  ///< DE budget sent with the request (0 = server default)
   std::uint64_t seed = 0;             ///< DE seed sent with the request (0 = server default)
-  bool skip_verification = false;     ///< ask for the planner's plan without verification
+  /// Requests again, each time with the next DE seed (1000 + n when `seed` is 0,
+  /// else seed + n) and the state measured then, after an infeasible or failed answer, at
+  /// most this many times and only while the decision point is ahead (docs/robust.md).
+  int retries = 0;
+  bool skip_verification = false;  ///< ask for the planner's plan without verification
   /// Ask for the trajectory as knots (TRAJECTORY_FORMAT_KNOTS, about a fifth of the bytes),
   /// turned into 1 kHz references here; false: dense samples (YAML `trajectory_format`:
   /// knots | dense).

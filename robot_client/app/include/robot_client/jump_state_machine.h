@@ -7,6 +7,8 @@
 ///                                                                  -> PLAN -> TAKEOFF ...
 ///                      \-> BRAKE (no plan by the decision point, infeasible plan, planner
 ///                                 unreachable) -> STAND
+///                      \-> PLAN (an infeasible or failed answer with retries left and the
+///                                decision point ahead: the plan requested again)
 ///   any state -> DAMPING (estimator divergence, motor fault, watchdog, attitude limit)
 ///
 /// Pure logic: step() takes what the loop measured and returns what the loop must do; it
@@ -39,6 +41,7 @@ enum class Reason : std::uint8_t {
   NoPlanByDecisionPoint,
   PlanInfeasible,
   PlannerFailed,  ///< unreachable, deadline exceeded, or an error status
+  PlanRetry,      ///< infeasible or failed answer, retries left: the plan requested again
   Stopped,        ///< speed below the stop threshold
   EstimatorDiverged,
   MotorFault,
@@ -91,7 +94,10 @@ class JumpStateMachine {
  public:
   static constexpr int kJournalSize = 64;
 
-  JumpStateMachine(const ScenarioSettings& scenario, const SafetySettings& safety);
+  /// `plan_retries`: how many times an infeasible or failed answer is followed by a new
+  /// request while the decision point is ahead (PlannerConnection::retries).
+  JumpStateMachine(const ScenarioSettings& scenario, const SafetySettings& safety,
+                   int plan_retries = 0);
 
   /// One control period. No allocation, no logging.
   FsmOutput step(const FsmInput& in);
@@ -117,6 +123,8 @@ class JumpStateMachine {
   bool jumped() const { return jumped_; }
   /// Jumps whose landing phase is over.
   int landings() const { return landings_; }
+  /// The current jump's plan request: 0 the first, n the n-th retry.
+  int planAttempt() const { return plan_attempt_; }
   /// The abort that ended the jump attempt, or Reason::Start if none.
   Reason abortReason() const { return abort_reason_; }
 
@@ -140,6 +148,8 @@ class JumpStateMachine {
   double ramp_end_t_ = 0.0;  // end of the speed ramp of the current run-up [s]
   int wall_index_ = 0;
   int landings_ = 0;
+  int plan_retries_ = 0;
+  int plan_attempt_ = 0;
   bool jumped_ = false;
   bool rolled_on_ = false;
   Reason abort_reason_ = Reason::Start;

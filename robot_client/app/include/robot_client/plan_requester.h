@@ -49,6 +49,8 @@ struct PlanRequestSnapshot {
   /// Fly a plan that meets every constraint but misses the target (the planner's closest
   /// approach, e.g. the highest apex in reach), if its verification passed.
   bool accept_closest_approach = false;
+  /// DE seed of this request; 0: the connection's (PlannerConnection::seed).
+  std::uint64_t seed = 0;
 };
 
 /// How the last request went (for the summary; read outside the loop).

@@ -40,6 +40,10 @@ struct TruthMetrics {
   double liftoff_vx = std::numeric_limits<double>::quiet_NaN();
   double liftoff_vz = std::numeric_limits<double>::quiet_NaN();
   double liftoff_pitch_rate = std::numeric_limits<double>::quiet_NaN();  ///< nose-up [rad/s]
+  /// Body rotation nose-up since the start of the take-off, unwrapped (a backflip: 2 pi),
+  /// at the first touchdown and at the end [rad].
+  double touchdown_rotation = std::numeric_limits<double>::quiet_NaN();
+  double final_rotation = std::numeric_limits<double>::quiet_NaN();
   bool body_hit_ground = false;  ///< base or a leg link touched the terrain
   /// Base speed along x at the end of the roll-on after the landing (NaN without one) [m/s].
   double roll_on_speed = std::numeric_limits<double>::quiet_NaN();
@@ -72,6 +76,8 @@ struct RunSummary {
   double planned_liftoff_vx = std::numeric_limits<double>::quiet_NaN();
   double planned_liftoff_vz = std::numeric_limits<double>::quiet_NaN();
   double planned_liftoff_pitch_rate = std::numeric_limits<double>::quiet_NaN();
+  double planned_touchdown_rotation = std::numeric_limits<double>::quiet_NaN();  ///< [rad]
+  std::string actuators_file;  ///< the robot's actuator file (scenario's actuators_file)
   TruthMetrics truth;
   std::array<double, model::kJointsPerLeg> max_torque{};  ///< per joint kind [Nm]
   std::array<double, model::kJointsPerLeg> torque_limit{};
@@ -103,6 +109,11 @@ class RunRecorder {
                        const Backend& backend, const MpcCounters& mpc);
   /// Figures (gnuplot): speed, heights and modes; left-front joint torques with limits.
   void plot(const std::string& png, const ControlLoop& loop) const;
+  /// The knees over the take-off with their limits (the paper's backflip figure, viz/
+  /// knee_figure.h), simulated (else estimated) against the plan; needs keepFrames(). Writes
+  /// nothing (and says so) when the robot did not jump.
+  void plotKnees(const std::string& png, const ControlLoop& loop,
+                 const PlanRequester* requester) const;
   /// Keeps every period's pose from now on, for the pictures (--snapshots, --gif, --html).
   void keepFrames() { keep_frames_ = true; }
   /// The run for the viewers (viz/): the ground truth in simulation, else the estimate; the
@@ -118,8 +129,10 @@ class RunRecorder {
   std::vector<Transition> transitions_;
   TruthMetrics truth_;
   bool have_truth_row_ = false;
-  std::array<double, 8> truth_row_{};  // t, x, z, vx, pitch, com_x, com_z, clearance
+  std::array<double, 9> truth_row_{};  // t, x, z, vx, pitch, com_x, com_z, clearance, contact
   double takeoff_truth_x_ = std::numeric_limits<double>::quiet_NaN();
+  double truth_pitch_ = 0.0;  // unwrapped true pitch [rad]
+  double takeoff_truth_pitch_ = std::numeric_limits<double>::quiet_NaN();
   double pos_err2_ = 0.0, vel_err2_ = 0.0;
   long err_n_ = 0;
   bool keep_frames_ = false;

@@ -1,0 +1,222 @@
+// The plan executor's leg placement for the measured pitch (touchdown_pitch_placement): in
+// the descent every leg's HFE reference moves by the body's pitch error beyond its band
+// (nose-up error: HFE up, the legs swing back to the plan's angle in the world), ramped in
+// from the plan's apex, clamped; the touchdown's offset is held in the landing and fades with
+// the hand-over blend; off, the legs follow the plan. The landing's wheel braking against a
+// wheelie acts beyond its pitch limit only, never forward, clamped. Bad settings are refused
+// by name.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Geometry>
+
+#include "sim/plan_executor.h"
+
+namespace wj::sim {
+namespace {
+
+using model::jointIndex;
+using model::JointKind;
+using model::Leg;
+
+model::RobotModel loadRobot() {
+  const std::filesystem::path dir = WJ_MODELS_DIR;
+  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
+}
+
+// Take-off until t2 = 0.2 s, flight to t3 = 0.5 s with the apex at 0.35 s (vz > 0 before);
+// the planned pitch is 0.3 rad all along; every leg holds HFE 0.8 rad.
+constexpr double kPlanPitch = 0.3;
+constexpr double kHfe = 0.8;
+
+planner::JumpPlan makePlan() {
+  planner::JumpPlan plan;
+  plan.dt = 0.002;
+  plan.t1 = 0.2;
+  plan.t2 = 0.2;
+  plan.t3 = 0.5;
+  const int n = 251;
+  plan.centroidal.resize(n);
+  for (int k = 0; k < n; ++k)
+    plan.centroidal[k] =
+        planner::PlanarState{0.0, 0.3, kPlanPitch, 2.5, k * plan.dt < 0.35 ? 1.0 : -1.0, 0.0};
+  plan.q = Eigen::MatrixXd::Zero(n, model::kNumJoints);
+  plan.qd = Eigen::MatrixXd::Zero(n, model::kNumJoints);
+  plan.tau = Eigen::MatrixXd::Zero(n, model::kNumJoints);
+  for (int leg = 0; leg < model::kNumLegs; ++leg) {
+    const int j = jointIndex(static_cast<Leg>(leg), JointKind::HFE);
+    plan.q.col(j).setConstant(kHfe);
+    plan.q_landing[j] = kHfe;
+  }
+  return plan;
+}
+
+// The body pitched nose-up by `pitch` (about -y).
+model::SensorData pitched(double pitch) {
+  model::SensorData s;
+  s.imu.q_WB = Eigen::Quaterniond(Eigen::AngleAxisd(-pitch, Eigen::Vector3d::UnitY()));
+  return s;
+}
+
+ExecutorSettings placement(double fraction) {
+  ExecutorSettings s;
+  s.landing_gravity_feedforward = false;
+  s.touchdown_pitch_placement = fraction;
+  s.touchdown_placement_max_rad = 0.4;
+  s.touchdown_placement_lead_s = 0.05;  // whole from 0.45 s
+  s.touchdown_placement_band_up_rad = 0.0;
+  s.touchdown_placement_band_down_rad = 0.1;
+  return s;
+}
+
+double hfe(const model::JointCommands& c, Leg leg) {
+  return c[jointIndex(leg, JointKind::HFE)].q_des;
+}
+
+// Runs the executor from the start (pitch 0) to the flight time `t` at body pitch `pitch`.
+model::JointCommands flyTo(PlanExecutor& ex, double t, double pitch) {
+  model::JointCommands c{};
+  ex.update(0.0, pitched(0.0), true, c);
+  ex.update(0.21, pitched(pitch), false, c);  // past t2: flight
+  ex.update(0.25, pitched(pitch), false, c);  // airborne (debounce over)
+  ex.update(t, pitched(pitch), false, c);
+  return c;
+}
+
+TEST(LandingPlacement, LegsSwingBackByTheNoseUpErrorInTheDescentOnly) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  const double error = 0.2;  // 0.5 rad nose-up against the plan's 0.3
+  {
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    const model::JointCommands c = flyTo(ex, 0.3, kPlanPitch + error);  // before the apex
+    for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+      EXPECT_NEAR(hfe(c, leg), kHfe, 1e-12);
+  }
+  {
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    const model::JointCommands c = flyTo(ex, 0.4, kPlanPitch + error);  // half the ramp
+    EXPECT_NEAR(hfe(c, Leg::LH), kHfe + 0.5 * error, 1e-9);
+  }
+  {
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    const model::JointCommands c = flyTo(ex, 0.46, kPlanPitch + error);
+    for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+      EXPECT_NEAR(hfe(c, leg), kHfe + error, 1e-9);
+  }
+  {
+    PlanExecutor off(robot, plan, placement(0.0), 9.81);
+    const model::JointCommands c = flyTo(off, 0.46, kPlanPitch + error);
+    EXPECT_NEAR(hfe(c, Leg::RH), kHfe, 1e-12);
+  }
+}
+
+TEST(LandingPlacement, BandAndClampBoundTheOffset) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  {  // nose-down by 0.08: inside the nose-down band
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    EXPECT_NEAR(hfe(flyTo(ex, 0.46, kPlanPitch - 0.08), Leg::LF), kHfe, 1e-12);
+  }
+  {  // nose-down by 0.25: 0.15 beyond the band, legs forward
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    EXPECT_NEAR(hfe(flyTo(ex, 0.46, kPlanPitch - 0.25), Leg::LF), kHfe - 0.15, 1e-9);
+  }
+  {  // nose-up by 0.9: clamped at 0.4
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    EXPECT_NEAR(hfe(flyTo(ex, 0.46, kPlanPitch + 0.9), Leg::RF), kHfe + 0.4, 1e-9);
+  }
+}
+
+TEST(LandingPlacement, TouchdownOffsetIsHeldAndFadesWithTheHandover) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+  LandingHandover handover;
+  for (int leg = 0; leg < model::kNumLegs; ++leg)
+    handover.q[jointIndex(static_cast<Leg>(leg), JointKind::HFE)] = kHfe;
+  handover.blend_start_s = 0.25;
+  ex.setHandover(handover);
+  model::JointCommands c = flyTo(ex, 0.48, kPlanPitch + 0.2);
+  ex.update(0.49, pitched(kPlanPitch + 0.2), true, c);  // touchdown
+  ASSERT_EQ(ex.phase(), JumpPhase::Landing);
+  EXPECT_NEAR(hfe(c, Leg::LH), kHfe + 0.2, 1e-9);
+  ex.update(0.6, pitched(0.0), true, c);  // the body pitches down: the offset stays
+  EXPECT_NEAR(hfe(c, Leg::LH), kHfe + 0.2, 1e-9);
+  ex.update(0.49 + 1.0, pitched(0.0), true, c);  // end of the landing: the hand-over posture
+  EXPECT_NEAR(hfe(c, Leg::LH), kHfe, 1e-9);
+}
+
+// The body pitched nose-up by `pitch`, turning nose-up at `rate`.
+model::SensorData pitching(double pitch, double rate) {
+  model::SensorData s = pitched(pitch);
+  s.imu.omega_B = Eigen::Vector3d(0.0, -rate, 0.0);  // about B's y = W's y here
+  return s;
+}
+
+double wheelTau(const model::JointCommands& c, Leg leg) {
+  return c[jointIndex(leg, JointKind::Wheel)].tau_ff;
+}
+
+TEST(LandingPlacement, WheelsBrakeAgainstAWheelieBeyondTheLimitOnly) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  ExecutorSettings s = placement(0.0);
+  s.landing_pitch_limit_rad = 0.4;
+  s.landing_pitch_kp = 40.0;
+  s.landing_pitch_kd = 4.0;
+  s.landing_pitch_max_nm = 8.0;
+  PlanExecutor ex(robot, plan, s, 9.81);
+  model::JointCommands c = flyTo(ex, 0.48, kPlanPitch);
+  ex.update(0.49, pitching(0.35, 1.0), true, c);  // touchdown below the limit: no brake
+  ASSERT_EQ(ex.phase(), JumpPhase::Landing);
+  for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+    EXPECT_DOUBLE_EQ(wheelTau(c, leg), 0.0);
+  ex.update(0.5, pitching(0.45, 0.5), true, c);  // 0.05 beyond, rising at 0.5 rad/s
+  for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+    EXPECT_NEAR(wheelTau(c, leg), -(40.0 * 0.05 + 4.0 * 0.5), 1e-9);
+  ex.update(0.51, pitching(0.7, 3.0), true, c);  // far beyond: clamped
+  EXPECT_NEAR(wheelTau(c, Leg::RH), -8.0, 1e-12);
+  ex.update(0.52, pitching(0.45, -3.0), true, c);  // coming down fast: never a forward torque
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
+
+  PlanExecutor off(robot, plan, placement(0.0), 9.81);  // kp = kd = 0 by default
+  c = flyTo(off, 0.48, kPlanPitch);
+  off.update(0.49, pitching(0.7, 3.0), true, c);
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
+}
+
+TEST(LandingPlacement, SettingsOutOfRangeAreRejectedByName) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  const std::string fields[] = {"touchdown_pitch_placement",
+                                "touchdown_placement_max_rad",
+                                "touchdown_placement_lead_s",
+                                "touchdown_placement_band_up_rad",
+                                "touchdown_placement_band_down_rad",
+                                "landing_pitch_kp",
+                                "landing_pitch_max_nm"};
+  for (const std::string& field : fields) {
+    ExecutorSettings s = placement(1.0);
+    if (field == "touchdown_pitch_placement") s.touchdown_pitch_placement = 1.5;
+    if (field == "touchdown_placement_max_rad") s.touchdown_placement_max_rad = -0.1;
+    if (field == "touchdown_placement_lead_s") s.touchdown_placement_lead_s = std::nan("");
+    if (field == "touchdown_placement_band_up_rad") s.touchdown_placement_band_up_rad = -1.0;
+    if (field == "touchdown_placement_band_down_rad") s.touchdown_placement_band_down_rad = -1.0;
+    if (field == "landing_pitch_kp") s.landing_pitch_kp = -1.0;
+    if (field == "landing_pitch_max_nm") s.landing_pitch_max_nm = std::nan("");
+    try {
+      PlanExecutor ex(robot, plan, s, 9.81);
+      ADD_FAILURE() << field << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  }
+}
+
+}  // namespace
+}  // namespace wj::sim
