@@ -132,6 +132,7 @@ void JointBrake::start(double q, double v, double decel_rad_s2, double torque_nm
   t_a = 0.0;
   q_a = q;
   w_a = w0;
+  lambda = 0.0;
   if (w0 > w_c) {
     // w' = -decel (w_nl - w) / (w_nl - w_c): w_nl - w grows as exp(lambda t).
     lambda = decel / (w_nl - w_c);
@@ -139,10 +140,19 @@ void JointBrake::start(double q, double v, double decel_rad_s2, double torque_nm
     q_a = q + sign * (w_nl * t_a - (w0 - w_c) / lambda);
     w_a = w_c;
   }
-  // Below the corner speed the torque falls linearly to zero at rest (no step in the
-  // feed-forward): w' = -decel (1 - s / T_b), at rest after T_b = 2 w_a / decel.
-  t_stop = t_a + 2.0 * w_a / decel;
-  q_stop = q_a + sign * (2.0 / 3.0) * w_a * w_a / decel;
+  // Below the corner speed the deceleration is decel p(s / T_b), p the cubic from 1 with the
+  // envelope part's slope (lambda T_b per unit x) to 0 with slope 0 at rest, so the torque is
+  // C1 throughout (the knots' torque slopes follow it). At rest: w_a = decel T_b (1/2 +
+  // kappa / 12) with kappa = lambda T_b, a quadratic in T_b.
+  if (lambda > 0.0) {
+    const double r = lambda * w_a / decel;
+    t_b = 6.0 * (std::sqrt(0.25 + r / 3.0) - 0.5) / lambda;
+  } else {
+    t_b = 2.0 * w_a / decel;
+  }
+  kappa = lambda * t_b;
+  t_stop = t_a + t_b;
+  q_stop = q_a + sign * (w_a * t_b - decel * t_b * t_b * (0.35 + 0.05 * kappa));
 }
 
 double JointBrake::at(double tau, double* qd) const {
@@ -155,14 +165,20 @@ double JointBrake::at(double tau, double* qd) const {
     if (qd) *qd = sign * (w_nl - (w_nl - w0) * e);
     return q0 + sign * (w_nl * tau - (w_nl - w0) * (e - 1.0) / lambda);
   }
-  const double s = tau - t_a, T_b = t_stop - t_a;
-  if (qd) *qd = sign * (w_a - decel * s * (1.0 - 0.5 * s / T_b));
-  return q_a + sign * s * (w_a - decel * s * (0.5 - s / (6.0 * T_b)));
+  // The cubic's first and second integrals in x = s / T_b.
+  const double s = tau - t_a, x = s / t_b, x2 = x * x, x3 = x2 * x, x4 = x3 * x, x5 = x4 * x;
+  const double p1 = 0.5 * x4 - x3 + x + kappa * (0.25 * x4 - 2.0 / 3.0 * x3 + 0.5 * x2);
+  const double p2 = 0.1 * x5 - 0.25 * x4 + 0.5 * x2 + kappa * (0.05 * x5 - x4 / 6.0 + x3 / 6.0);
+  if (qd) *qd = sign * (w_a - decel * t_b * p1);
+  return q_a + sign * (w_a * s - decel * t_b * t_b * p2);
 }
 
 double JointBrake::torqueAt(double tau) const {
   if (tau >= t_stop) return 0.0;
-  if (tau >= t_a) return -sign * torque * (1.0 - (tau - t_a) / (t_stop - t_a));
+  if (tau >= t_a) {
+    const double x = (tau - t_a) / t_b, x2 = x * x, x3 = x2 * x;
+    return -sign * torque * (2.0 * x3 - 3.0 * x2 + 1.0 + kappa * (x3 - 2.0 * x2 + x));
+  }
   // Above the corner speed (w_a) the torque falls with the envelope, as the deceleration does.
   return -sign * torque * (w_nl - w0) * std::exp(lambda * tau) / (w_nl - w_a);
 }
@@ -208,6 +224,7 @@ void solveFlight(const JumpModelConstants& M, Solved& S) {
   for (int pair = 0; pair < 2; ++pair) {
     S.brake[pair] = startBrake(M, pair, S.q_to[pair], S.qd_to[pair]);
     for (const JointBrake& b : S.brake[pair]) S.brake_end = std::max(S.brake_end, b.t_stop);
+    for (int j = 0; j < 2; ++j) S.tuck_duration[pair][j] = tuckDuration(M, S, pair, j);
   }
   integrateFlightAttitude(M, S);
   S.touchdown = stateAt(M, S, S.t3, M.settings.gravity);
@@ -231,6 +248,20 @@ PlanarState flightState(const JumpModelConstants& M, const Solved& S, double t) 
   return s;
 }
 
+// The tuck from rest: done by tuck_end, or slower if its peak speed (1.5 dq / T) would pass
+// kTuckSpeedShare of the no-load speed, but by extend_start at the latest.
+double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int j) {
+  const auto& st = M.settings;
+  const JointBrake& b = S.brake[pair][j];
+  const double q_tuck = j == 0 ? st.tuck_hfe_rad : st.tuck_kfe_rad;
+  const double w_nl = (j == 0 ? M.env_hfe : M.env_kfe).no_load_speed_rad_s;
+  const double t_tuck = st.tuck_end_fraction * S.Tf, t_extend = st.extend_start_fraction * S.Tf;
+  if (pair == 1) return t_tuck - b.t_stop;  // the front wheels must clear an obstacle first
+  return std::min(
+      std::max(t_tuck - b.t_stop, 1.5 * std::abs(q_tuck - b.q_stop) / (kTuckSpeedShare * w_nl)),
+      t_extend - b.t_stop);
+}
+
 // (HFE, KFE) of a pair in flight at time t: from the take-off posture and speeds the joints
 // brake to rest (JointBrake), then move to the tuck posture by tuck_end (a fraction of the
 // flight), hold it, and move to the landing posture over [extend_start, extend_end], with
@@ -240,20 +271,20 @@ Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int 
   const auto& st = M.settings;
   const double tau = t - S.t2, xi = tau / S.Tf;
   const Eigen::Vector2d q_tuck(st.tuck_hfe_rad, st.tuck_kfe_rad);
-  if (xi < st.tuck_end_fraction || tau < S.brake_end) {
-    const double t_tuck = st.tuck_end_fraction * S.Tf;
+  if (tau < st.extend_start_fraction * S.Tf || tau < S.brake_end) {
     Eigen::Vector2d q;
     for (int j = 0; j < 2; ++j) {
       const JointBrake& b = S.brake[pair][j];
+      const double dq = q_tuck[j] - b.q_stop, T = S.tuck_duration[pair][j];
       double rate = 0.0;
       if (tau < b.t_stop) {
         q[j] = b.at(tau, &rate);
-      } else if (tau < t_tuck) {
-        const double T = t_tuck - b.t_stop, u = (tau - b.t_stop) / T;
-        q[j] = b.q_stop + (q_tuck[j] - b.q_stop) * smoothstep(u);
-        rate = (q_tuck[j] - b.q_stop) * smoothstepRate(u) / T;
+      } else if (T > 0.0 && tau < b.t_stop + T) {
+        const double u = (tau - b.t_stop) / T;
+        q[j] = b.q_stop + dq * smoothstep(u);
+        rate = dq * smoothstepRate(u) / T;
       } else {
-        q[j] = q_tuck[j];  // the brake outlasted the tuck (a very short flight)
+        q[j] = q_tuck[j];  // tucked (or the brake outlasted the tuck: a very short flight)
       }
       if (qd) (*qd)[j] = rate;
     }

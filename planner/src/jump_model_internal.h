@@ -22,19 +22,25 @@ namespace wj::planner::detail {
 /// Share of a drive's torque envelope the legs brake with after their lift-off (the rest is
 /// for the joint controllers' tracking and the inertia the fixed-base figure leaves out).
 inline constexpr double kBrakeTorqueShare = 0.8;
+/// Share of a joint's no-load speed the hind pair's tuck after the braking may reach at its
+/// peak: Simbody's hind knee passed its no-load speed when the platform's short flight asked
+/// its tuck for 40 rad/s. (The front pair tucks by tuck_end regardless: its wheels are the
+/// first to pass an obstacle; slowed the same way they hit the platform's face.)
+inline constexpr double kTuckSpeedShare = 0.8;
 /// How far from its limit a braking joint must come to rest [rad].
 inline constexpr double kBrakeLimitClearance = 0.03;
 
 /// One joint braking from its speed at a lift-off to rest (docs/planner.md, "Flight: the legs
 /// brake"): at `decel` up to the drive's corner speed and above it at the same share of the
 /// envelope's torque, which falls linearly to zero at the no-load speed, so the speed there
-/// approaches its rest exponentially. Memoryless: braking from any point of the profile
-/// continues the same profile.
+/// falls exponentially; below it the torque falls along a cubic to zero at rest, with no kink
+/// at the corner speed nor at rest (a C1 feed-forward).
 struct JointBrake {
   double q0 = 0.0, sign = 0.0;
   double w0 = 0.0, w_nl = 0.0, lambda = 0.0;  // start speed (abs.), no-load speed, 1/s
   double t_a = 0.0, q_a = 0.0, w_a = 0.0;     // end of the envelope-limited part
   double decel = 0.0;                         // [rad/s^2]
+  double t_b = 0.0, kappa = 0.0;              // below w_c: duration [s], shape (lambda t_b)
   double torque = 0.0;                        // the drive's torque it assumes below w_c [Nm]
   double t_stop = 0.0, q_stop = 0.0;          // at rest: when (after the start) and where
 
@@ -77,6 +83,8 @@ struct Solved {
   // the last joint is at rest (after t2).
   std::array<std::array<JointBrake, 2>, 2> brake{};
   double brake_end = 0.0;
+  // How long each pair's (HFE, KFE) then tuck (tuckDuration) [s].
+  std::array<Eigen::Vector2d, 2> tuck_duration{};
   // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
   // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
   // moving (docs/planner.md, "Flight").
@@ -189,6 +197,8 @@ PlanarState flightState(const JumpModelConstants& M, const Solved& S, double t);
 // (HFE, KFE) of a pair (0 hind, 1 front) in flight at time t, and its rate if `qd`.
 Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int pair, double t,
                               Eigen::Vector2d* qd);
+// How long joint j (0 HFE, 1 KFE) of a pair tucks after its braking ends [s].
+double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int j);
 // The pair's braking from (q, qd) at its lift-off (the leg's inertia, the drives' envelopes).
 std::array<JointBrake, 2> startBrake(const JumpModelConstants& M, int pair,
                                      const Eigen::Vector2d& q, const Eigen::Vector2d& qd);
