@@ -122,6 +122,14 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   const auto X = k_.robot.calcLinkPoses(q0);
   k_.hind = pairGeometry(k_.robot, Leg::LH);
   k_.front = pairGeometry(k_.robot, Leg::LF);
+  for (int pair = 0; pair < 2; ++pair) {
+    const detail::PairGeometry& g = pair == 0 ? k_.hind : k_.front;
+    detail::JumpModelConstants::LegInertia& li = k_.leg_inertia[pair];
+    li.i_knee = g.i_lower + g.m_lower * g.c_lower.squaredNorm();
+    li.i_hip = g.i_thigh + g.m_thigh * g.c_thigh.squaredNorm() + li.i_knee +
+               g.m_lower * k_.leg.l1 * k_.leg.l1;
+    li.m_l1_c = g.m_lower * k_.leg.l1 * g.c_lower.norm();
+  }
   // The parts that do not move with the sagittal joints: the base and the hip (HAA) links.
   k_.mass_fixed = 0.0;
   k_.moment_fixed.setZero();

@@ -127,10 +127,15 @@ void emitContact(const JumpModelConstants& M, const Sample& smp, Sink& sink) {
            smp.t, loc_pair);
     }
     sink(ConstraintClass::JointPosition, p.reach / M.leg.l1, smp.t, base + 2);
-    sink(ConstraintClass::JointPosition, std::min(p.q[0] - M.lim_hfe[0], M.lim_hfe[1] - p.q[0]),
-         smp.t, base + 1);
-    sink(ConstraintClass::JointPosition, std::min(p.q[1] - M.lim_kfe[0], M.lim_kfe[1] - p.q[1]),
-         smp.t, base + 2);
+    // Within the limits, and at a lift-off also where the braking joint comes to rest.
+    auto within = [&](int j, const std::array<double, 2>& lim) {
+      const double m = std::min(p.q[j] - lim[0], lim[1] - p.q[j]);
+      if (!p.brakes) return m;
+      return std::min(m,
+                      std::min(p.q_stop[j] - lim[0], lim[1] - p.q_stop[j]) - kBrakeLimitClearance);
+    };
+    sink(ConstraintClass::JointPosition, within(0, M.lim_hfe), smp.t, base + 1);
+    sink(ConstraintClass::JointPosition, within(1, M.lim_kfe), smp.t, base + 2);
     sink(ConstraintClass::JointSpeed, M.env_hfe.speedMargin(p.qd[0]), smp.t, base + 1);
     sink(ConstraintClass::JointSpeed, M.env_kfe.speedMargin(p.qd[1]), smp.t, base + 2);
     const double tau_haa = lever * p.haa_fz;
@@ -318,7 +323,7 @@ void targetErrors(const JumpModelConstants& M, const Solved& S, Eigen::Vector4d&
   const double t_apex = std::max(to.vz / g, 0.0);
   std::array<Eigen::Vector2d, 2> q_apex;
   for (int pair = 0; pair < 2; ++pair)
-    q_apex[pair] = flightPosture(M, S, S.q_to[pair], S.t2 + t_apex, nullptr);
+    q_apex[pair] = flightPosture(M, S, pair, S.t2 + t_apex, nullptr);
   out.apex = event(S.t2 + t_apex, flightState(M, S, S.t2 + t_apex),
                    comOffset(M, poseOf(q_apex[0]), poseOf(q_apex[1])));
   out.touchdown = event(S.t3, S.touchdown, M.c_land);

@@ -11,29 +11,54 @@ namespace wj::planner::detail {
 
 namespace {
 
+// Sub-steps of the attitude's trapezoid rule in a flight interval the braking overlaps: the
+// legs come to rest within 10-25 ms, less than one interval, and hand their momentum to the
+// body meanwhile.
+constexpr int kBrakeSubsteps = 6;
+
 // Flight attitude: the total angular momentum about the CoM is conserved from the lift-off
 // on. It is taken from the take-off kinematics the joint controllers track (body pitch rate,
-// legs still extending, wheels spinning): when the legs stop and tuck, their momentum goes
-// into the body. The body's pitch rate follows, and is integrated (trapezoid).
+// legs still extending, wheels spinning): as the legs brake and tuck, their momentum goes into
+// the body. The body's pitch rate follows, and is integrated (trapezoid, finer while the legs
+// brake).
 void integrateFlightAttitude(const JumpModelConstants& M, Solved& S) {
   const int n = M.settings.samples_flight;
   S.n_flight = n;
   double i_to = 0.0, h_to = 0.0;
   flightMomentum(M, S.q_to, S.qd_to, i_to, h_to);
   const double h_y = -i_to * S.takeoff.pitch_rate + h_to;
+  // The body's nose-up pitch rate at time t (about -y), and the legs' posture and CoM offset.
+  auto rate_at = [&](double t, std::array<Eigen::Vector2d, 2>& q, Eigen::Vector2d* c) {
+    std::array<Eigen::Vector2d, 2> qd;
+    for (int pair = 0; pair < 2; ++pair) q[pair] = flightPosture(M, S, pair, t, &qd[pair]);
+    double i_total = 0.0, h = 0.0;
+    flightMomentum(M, q, qd, i_total, h, c);
+    return -(h_y - h) / i_total;
+  };
+  const double dt = S.Tf / n;
   double prev_rate = 0.0;
   for (int k = 0; k <= n; ++k) {
     const double t = S.t2 + S.Tf * k / n;
-    std::array<Eigen::Vector2d, 2> q, qd;
-    for (int pair = 0; pair < 2; ++pair) q[pair] = flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
-    double i_total = 0.0, h = 0.0;
-    flightMomentum(M, q, qd, i_total, h, &S.flight_c[k]);
+    std::array<Eigen::Vector2d, 2> q;
+    const double rate = rate_at(t, q, &S.flight_c[k]);
     S.flight_q[0][k] = q[0];
     S.flight_q[1][k] = q[1];
-    const double rate = -(h_y - h) / i_total;  // nose-up = about -y
     S.flight_rate[k] = rate;
-    S.flight_pitch[k] =
-        k == 0 ? S.takeoff.pitch : S.flight_pitch[k - 1] + 0.5 * (prev_rate + rate) * S.Tf / n;
+    if (k == 0) {
+      S.flight_pitch[k] = S.takeoff.pitch;
+    } else if (dt * (k - 1) < S.brake_end) {
+      double sum = 0.0, r0 = prev_rate;
+      for (int i = 1; i <= kBrakeSubsteps; ++i) {
+        std::array<Eigen::Vector2d, 2> q_sub;
+        const double r1 =
+            i == kBrakeSubsteps ? rate : rate_at(t - dt + dt * i / kBrakeSubsteps, q_sub, nullptr);
+        sum += 0.5 * (r0 + r1);
+        r0 = r1;
+      }
+      S.flight_pitch[k] = S.flight_pitch[k - 1] + sum * dt / kBrakeSubsteps;
+    } else {
+      S.flight_pitch[k] = S.flight_pitch[k - 1] + 0.5 * (prev_rate + rate) * dt;
+    }
     prev_rate = rate;
   }
 }
@@ -93,8 +118,114 @@ double flightWheelRate(const JumpModelConstants& M, const Solved& S, int pair, d
   return S.wheel_to[pair] + (S.takeoff.vx / M.wheel_radius - S.wheel_to[pair]) * smoothstep(xi);
 }
 
+void JointBrake::start(double q, double v, double decel_rad_s2, double torque_nm,
+                       const model::ActuatorEnvelope& env) {
+  q0 = q;
+  sign = v < 0.0 ? -1.0 : 1.0;
+  decel = decel_rad_s2;
+  torque = torque_nm;
+  const double w_c = env.corner_speed_rad_s;
+  w_nl = env.no_load_speed_rad_s;
+  // Within the no-load speed (an infeasible candidate may exceed it; the speed constraint
+  // rejects it, the profile only has to stay finite).
+  w0 = std::min(std::abs(v), w_c + 0.999 * (w_nl - w_c));
+  t_a = 0.0;
+  q_a = q;
+  w_a = w0;
+  lambda = 0.0;
+  if (w0 > w_c) {
+    // w' = -decel (w_nl - w) / (w_nl - w_c): w_nl - w grows as exp(lambda t).
+    lambda = decel / (w_nl - w_c);
+    t_a = std::log((w_nl - w_c) / (w_nl - w0)) / lambda;
+    q_a = q + sign * (w_nl * t_a - (w0 - w_c) / lambda);
+    w_a = w_c;
+  }
+  // Below the corner speed the deceleration is decel p(s / T_b), p the cubic from 1 with the
+  // envelope part's slope (lambda T_b per unit x) to 0 with slope 0 at rest, so the torque is
+  // C1 throughout (the knots' torque slopes follow it). At rest: w_a = decel T_b (1/2 +
+  // kappa / 12) with kappa = lambda T_b, a quadratic in T_b.
+  if (lambda > 0.0) {
+    const double r = lambda * w_a / decel;
+    t_b = 6.0 * (std::sqrt(0.25 + r / 3.0) - 0.5) / lambda;
+  } else {
+    t_b = 2.0 * w_a / decel;
+  }
+  kappa = lambda * t_b;
+  t_stop = t_a + t_b;
+  q_stop = q_a + sign * (w_a * t_b - decel * t_b * t_b * (0.35 + 0.05 * kappa));
+}
+
+double JointBrake::at(double tau, double* qd) const {
+  if (tau >= t_stop) {
+    if (qd) *qd = 0.0;
+    return q_stop;
+  }
+  if (tau < t_a) {
+    const double e = std::exp(lambda * tau);
+    if (qd) *qd = sign * (w_nl - (w_nl - w0) * e);
+    return q0 + sign * (w_nl * tau - (w_nl - w0) * (e - 1.0) / lambda);
+  }
+  // The cubic's first and second integrals in x = s / T_b.
+  const double s = tau - t_a, x = s / t_b, x2 = x * x, x3 = x2 * x, x4 = x3 * x, x5 = x4 * x;
+  const double p1 = 0.5 * x4 - x3 + x + kappa * (0.25 * x4 - 2.0 / 3.0 * x3 + 0.5 * x2);
+  const double p2 = 0.1 * x5 - 0.25 * x4 + 0.5 * x2 + kappa * (0.05 * x5 - x4 / 6.0 + x3 / 6.0);
+  if (qd) *qd = sign * (w_a - decel * t_b * p1);
+  return q_a + sign * (w_a * s - decel * t_b * t_b * p2);
+}
+
+double JointBrake::torqueAt(double tau) const {
+  if (tau >= t_stop) return 0.0;
+  if (tau >= t_a) {
+    const double x = (tau - t_a) / t_b, x2 = x * x, x3 = x2 * x;
+    return -sign * torque * (2.0 * x3 - 3.0 * x2 + 1.0 + kappa * (x3 - 2.0 * x2 + x));
+  }
+  // Above the corner speed (w_a) the torque falls with the envelope, as the deceleration does.
+  return -sign * torque * (w_nl - w0) * std::exp(lambda * tau) / (w_nl - w_a);
+}
+
+// Each joint brakes with kBrakeTorqueShare of its drive's torque. Its deceleration is that of
+// the leg as a fixed-base two-link arm (at the start's knee angle) under both joints' braking
+// torques, M^-1 tau: when the legs extend, hip and knee turn opposite ways and each joint's
+// torque also slows the other; where it would not (a joint turning the other way), the joint's
+// own share, tau / (M^-1)_jj^-1. This leaves out that the body gives way in flight (Simbody's
+// knees stop faster at the same torque) and that the help ends when the other joint is at rest.
+std::array<JointBrake, 2> startBrake(const JumpModelConstants& M, int pair,
+                                     const Eigen::Vector2d& q, const Eigen::Vector2d& qd) {
+  const JumpModelConstants::LegInertia& li = M.leg_inertia[pair];
+  const double cross = li.m_l1_c * std::cos(q[1]);
+  const double m11 = li.i_hip + 2.0 * cross, m12 = li.i_knee + cross, m22 = li.i_knee;
+  const double det = m11 * m22 - m12 * m12;
+  const double tau_hfe = kBrakeTorqueShare * M.env_hfe.peak_torque_nm;
+  const double tau_kfe = kBrakeTorqueShare * M.env_kfe.peak_torque_nm;
+  // Braking torques (against each joint's motion) and the decelerations they give.
+  const double t1 = qd[0] < 0.0 ? tau_hfe : -tau_hfe, t2 = qd[1] < 0.0 ? tau_kfe : -tau_kfe;
+  const double a1 = (m22 * t1 - m12 * t2) / det, a2 = (m11 * t2 - m12 * t1) / det;
+  const double d1 = std::max(tau_hfe * m22 / det, qd[0] < 0.0 ? a1 : -a1);
+  const double d2 = std::max(tau_kfe * m11 / det, qd[1] < 0.0 ? a2 : -a2);
+  std::array<JointBrake, 2> b;
+  b[0].start(q[0], qd[0], d1, tau_hfe, M.env_hfe);
+  b[1].start(q[1], qd[1], d2, tau_kfe, M.env_kfe);
+  return b;
+}
+
+Eigen::Vector2d brakeTorque(const std::array<JointBrake, 2>& b, double tau) {
+  return Eigen::Vector2d(b[0].torqueAt(tau), b[1].torqueAt(tau));
+}
+
+Eigen::Vector2d brakePosture(const std::array<JointBrake, 2>& b, double tau, Eigen::Vector2d* qd) {
+  Eigen::Vector2d q;
+  for (int j = 0; j < 2; ++j) q[j] = b[j].at(tau, qd ? &(*qd)[j] : nullptr);
+  return q;
+}
+
 // The flight attitude and the touchdown state of a solved take-off.
 void solveFlight(const JumpModelConstants& M, Solved& S) {
+  S.brake_end = 0.0;
+  for (int pair = 0; pair < 2; ++pair) {
+    S.brake[pair] = startBrake(M, pair, S.q_to[pair], S.qd_to[pair]);
+    for (const JointBrake& b : S.brake[pair]) S.brake_end = std::max(S.brake_end, b.t_stop);
+    for (int j = 0; j < 2; ++j) S.tuck_duration[pair][j] = tuckDuration(M, S, pair, j);
+  }
   integrateFlightAttitude(M, S);
   S.touchdown = stateAt(M, S, S.t3, M.settings.gravity);
 }
@@ -109,25 +240,60 @@ PlanarState flightState(const JumpModelConstants& M, const Solved& S, double t) 
   const double h01 = -2 * a * a * a + 3 * a * a, h11 = a * a * a - a * a;
   s.pitch = h00 * S.flight_pitch[k] + h10 * dt * S.flight_rate[k] + h01 * S.flight_pitch[k + 1] +
             h11 * dt * S.flight_rate[k + 1];
-  s.pitch_rate = (1 - a) * S.flight_rate[k] + a * S.flight_rate[k + 1];
+  // The Hermite's own derivative, so that a plan's pitch and pitch rate agree (knots).
+  const double d00 = 6 * a * a - 6 * a, d10 = 3 * a * a - 4 * a + 1;
+  const double d01 = -6 * a * a + 6 * a, d11 = 3 * a * a - 2 * a;
+  s.pitch_rate = (d00 * S.flight_pitch[k] + d01 * S.flight_pitch[k + 1]) / dt +
+                 d10 * S.flight_rate[k] + d11 * S.flight_rate[k + 1];
   return s;
 }
 
-// (HFE, KFE) of a pair in flight at time t: from the take-off posture to the tuck posture
-// over [0, tuck_end], held, then to the landing posture over [extend_start, extend_end]
-// (fractions of the flight), with smoothstep blends.
-Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S,
-                              const Eigen::Vector2d& q_takeoff, double t, Eigen::Vector2d* qd) {
+// The tuck from rest: done by tuck_end, or slower if its peak speed (1.5 dq / T) would pass
+// kTuckSpeedShare of the no-load speed, but by extend_start at the latest.
+double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int j) {
   const auto& st = M.settings;
-  const double xi = (t - S.t2) / S.Tf;
+  const JointBrake& b = S.brake[pair][j];
+  const double q_tuck = j == 0 ? st.tuck_hfe_rad : st.tuck_kfe_rad;
+  const double w_nl = (j == 0 ? M.env_hfe : M.env_kfe).no_load_speed_rad_s;
+  const double t_tuck = st.tuck_end_fraction * S.Tf, t_extend = st.extend_start_fraction * S.Tf;
+  if (pair == 1) return t_tuck - b.t_stop;  // the front wheels must clear an obstacle first
+  return std::min(
+      std::max(t_tuck - b.t_stop, 1.5 * std::abs(q_tuck - b.q_stop) / (kTuckSpeedShare * w_nl)),
+      t_extend - b.t_stop);
+}
+
+// (HFE, KFE) of a pair in flight at time t: from the take-off posture and speeds the joints
+// brake to rest (JointBrake), then move to the tuck posture by tuck_end (a fraction of the
+// flight), hold it, and move to the landing posture over [extend_start, extend_end], with
+// smoothstep blends.
+Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int pair, double t,
+                              Eigen::Vector2d* qd) {
+  const auto& st = M.settings;
+  const double tau = t - S.t2, xi = tau / S.Tf;
   const Eigen::Vector2d q_tuck(st.tuck_hfe_rad, st.tuck_kfe_rad);
-  auto blend = [&](const Eigen::Vector2d& from, const Eigen::Vector2d& to, double a, double b) {
-    const double T = (b - a) * S.Tf, u = (xi - a) / (b - a);
-    if (qd) *qd = (to - from) * smoothstepRate(u) / T;
-    return Eigen::Vector2d(from + (to - from) * smoothstep(u));
-  };
-  if (xi < st.tuck_end_fraction) return blend(q_takeoff, q_tuck, 0.0, st.tuck_end_fraction);
-  return blend(q_tuck, M.q_landing, st.extend_start_fraction, st.extend_end_fraction);
+  if (tau < st.extend_start_fraction * S.Tf || tau < S.brake_end) {
+    Eigen::Vector2d q;
+    for (int j = 0; j < 2; ++j) {
+      const JointBrake& b = S.brake[pair][j];
+      const double dq = q_tuck[j] - b.q_stop, T = S.tuck_duration[pair][j];
+      double rate = 0.0;
+      if (tau < b.t_stop) {
+        q[j] = b.at(tau, &rate);
+      } else if (T > 0.0 && tau < b.t_stop + T) {
+        const double u = (tau - b.t_stop) / T;
+        q[j] = b.q_stop + dq * smoothstep(u);
+        rate = dq * smoothstepRate(u) / T;
+      } else {
+        q[j] = q_tuck[j];  // tucked (or the brake outlasted the tuck: a very short flight)
+      }
+      if (qd) (*qd)[j] = rate;
+    }
+    return q;
+  }
+  const double a = st.extend_start_fraction, T = (st.extend_end_fraction - a) * S.Tf;
+  const double u = (xi - a) / (st.extend_end_fraction - a);
+  if (qd) *qd = (M.q_landing - q_tuck) * smoothstepRate(u) / T;
+  return q_tuck + (M.q_landing - q_tuck) * smoothstep(u);
 }
 
 }  // namespace wj::planner::detail

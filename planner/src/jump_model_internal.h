@@ -19,6 +19,39 @@
 
 namespace wj::planner::detail {
 
+/// Share of a drive's torque envelope the legs brake with after their lift-off (the rest is
+/// for the joint controllers' tracking and the inertia the fixed-base figure leaves out).
+inline constexpr double kBrakeTorqueShare = 0.8;
+/// Share of a joint's no-load speed the hind pair's tuck after the braking may reach at its
+/// peak: Simbody's hind knee passed its no-load speed when the platform's short flight asked
+/// its tuck for 40 rad/s. (The front pair tucks by tuck_end regardless: its wheels are the
+/// first to pass an obstacle; slowed the same way they hit the platform's face.)
+inline constexpr double kTuckSpeedShare = 0.8;
+/// How far from its limit a braking joint must come to rest [rad].
+inline constexpr double kBrakeLimitClearance = 0.03;
+
+/// One joint braking from its speed at a lift-off to rest (docs/planner.md, "Flight: the legs
+/// brake"): at `decel` up to the drive's corner speed and above it at the same share of the
+/// envelope's torque, which falls linearly to zero at the no-load speed, so the speed there
+/// falls exponentially; below it the torque falls along a cubic to zero at rest, with no kink
+/// at the corner speed nor at rest (a C1 feed-forward).
+struct JointBrake {
+  double q0 = 0.0, sign = 0.0;
+  double w0 = 0.0, w_nl = 0.0, lambda = 0.0;  // start speed (abs.), no-load speed, 1/s
+  double t_a = 0.0, q_a = 0.0, w_a = 0.0;     // end of the envelope-limited part
+  double decel = 0.0;                         // [rad/s^2]
+  double t_b = 0.0, kappa = 0.0;              // below w_c: duration [s], shape (lambda t_b)
+  double torque = 0.0;                        // the drive's torque it assumes below w_c [Nm]
+  double t_stop = 0.0, q_stop = 0.0;          // at rest: when (after the start) and where
+
+  /// Starts at position q and speed v, braking at `decel` with `torque` below the corner speed.
+  void start(double q, double v, double decel, double torque, const model::ActuatorEnvelope& env);
+  /// Position at time tau after the start, and its rate if `qd`.
+  double at(double tau, double* qd) const;
+  /// The braking torque at time tau after the start (0 once at rest) [Nm].
+  double torqueAt(double tau) const;
+};
+
 /// The solved take-off: every polynomial of the trajectory.
 struct Solved {
   bool two_step = false;
@@ -42,6 +75,16 @@ struct Solved {
   double front_wheel_rate_t1 = 0.0;
   LegPose front_pose_t1;  // inversePose(front_b_t1), and its reach margin
   double front_reach_t1 = 0.0;
+  // Two-step: the front pair's (HFE, KFE) braking from their speeds at t1 once lifted, and
+  // the pose it comes to rest in.
+  std::array<JointBrake, 2> front_brake{};
+  LegPose front_pose_stop;
+  // The legs' braking from their take-off speeds at t2 (per pair), before they tuck, and when
+  // the last joint is at rest (after t2).
+  std::array<std::array<JointBrake, 2>, 2> brake{};
+  double brake_end = 0.0;
+  // How long each pair's (HFE, KFE) then tuck (tuckDuration) [s].
+  std::array<Eigen::Vector2d, 2> tuck_duration{};
   // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
   // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
   // moving (docs/planner.md, "Flight").
@@ -67,6 +110,10 @@ struct PairSample {
   Eigen::Vector2d f = Eigen::Vector2d::Zero();     // ground force per wheel, J frame [N]
   Eigen::Vector2d axle = Eigen::Vector2d::Zero();  // axle position in J [m]
   double reach = 0.0;                              // reach margin [m]
+  // Where (HFE, KFE) come to rest if the pair lifts off here and brakes (its lift-off
+  // sample; otherwise q, and `brakes` false).
+  Eigen::Vector2d q_stop = Eigen::Vector2d::Zero();
+  bool brakes = false;
 };
 
 struct Sample {
@@ -147,9 +194,18 @@ void flightMomentum(const JumpModelConstants& M, const std::array<Eigen::Vector2
 void solveFlight(const JumpModelConstants& M, Solved& S);
 // The state in flight: ballistic CoM, attitude from the table.
 PlanarState flightState(const JumpModelConstants& M, const Solved& S, double t);
-// (HFE, KFE) of a pair in flight at time t, and its rate if `qd`.
-Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S,
-                              const Eigen::Vector2d& q_takeoff, double t, Eigen::Vector2d* qd);
+// (HFE, KFE) of a pair (0 hind, 1 front) in flight at time t, and its rate if `qd`.
+Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int pair, double t,
+                              Eigen::Vector2d* qd);
+// How long joint j (0 HFE, 1 KFE) of a pair tucks after its braking ends [s].
+double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int j);
+// The pair's braking from (q, qd) at its lift-off (the leg's inertia, the drives' envelopes).
+std::array<JointBrake, 2> startBrake(const JumpModelConstants& M, int pair,
+                                     const Eigen::Vector2d& q, const Eigen::Vector2d& qd);
+// (HFE, KFE) of a braking pair at time tau after the start, and its rate if `qd`.
+Eigen::Vector2d brakePosture(const std::array<JointBrake, 2>& b, double tau, Eigen::Vector2d* qd);
+// The braking torques of a pair at time tau after the start (the joint controllers' feed-forward).
+Eigen::Vector2d brakeTorque(const std::array<JointBrake, 2>& b, double tau);
 // Wheel joint rate of a pair in flight.
 double flightWheelRate(const JumpModelConstants& M, const Solved& S, int pair, double t);
 

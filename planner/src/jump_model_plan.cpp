@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "jump_model_internal.h"
+#include "planner/plan_knots.h"
 
 namespace wj::planner {
 
@@ -55,7 +56,7 @@ void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment seg
     int i = 0;
     for (const PairSample* p : {&smp.hind, &smp.front}) {
       q[i] = p->q;
-      qd[i] = p->contact ? p->qd : Eigen::Vector2d::Zero();
+      qd[i] = p->qd;  // a lifted front pair: its braking
       wheel_rate[i] = p->wheel_rate;
       wheel_tau[i] = p->contact ? p->wheel_tau : 0.0;
       haa_fz[i] = p->contact ? p->haa_fz : 0.0;
@@ -72,10 +73,16 @@ void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment seg
   } else {
     out.s = flightState(M, S, t);
     for (int pair = 0; pair < 2; ++pair) {
-      q[pair] = flightPosture(M, S, S.q_to[pair], t, &qd[pair]);
+      q[pair] = flightPosture(M, S, pair, t, &qd[pair]);
       wheel_rate[pair] = flightWheelRate(M, S, pair, t);
     }
   }
+  // The legs' braking torques after their lift-off: the hind pair's (and a simultaneous
+  // take-off's front pair's) from t2, a two-step take-off's front pair's from t1.
+  std::array<Eigen::Vector2d, 2> brake_tau = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
+  if (segment == Segment::Flight)
+    for (int pair = 0; pair < 2; ++pair) brake_tau[pair] = brakeTorque(S.brake[pair], t - S.t2);
+  if (segment == Segment::HindOnly) brake_tau[1] = brakeTorque(S.front_brake, t - S.t1);
   for (const Leg leg : model::kLegs) {
     const int pair = model::isFront(leg) ? 1 : 0;
     const int haa = model::jointIndex(leg, JointKind::HAA);
@@ -86,6 +93,10 @@ void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment seg
     out.tau[haa] = -lever * haa_fz[pair];
     out.q[haa + 1] = q[pair][0];
     out.q[haa + 2] = q[pair][1];
+    if (segment == Segment::Flight || (segment == Segment::HindOnly && pair == 1)) {
+      out.tau[haa + 1] = brake_tau[pair][0];
+      out.tau[haa + 2] = brake_tau[pair][1];
+    }
     out.qd[haa + 1] = qd[pair][0];
     out.qd[haa + 2] = qd[pair][1];
     out.qd[haa + 3] = wheel_rate[pair];
@@ -142,6 +153,95 @@ Solved solvedOrThrow(const JumpModelConstants& k, const Eigen::Ref<const Eigen::
     throw std::runtime_error(std::string("JumpModel::") + caller +
                              ": candidate has no valid trajectory");
   return S;
+}
+
+// The knots' tolerances at an interval's midpoint: joint position [rad], velocity [rad/s], and
+// torque [Nm] (against the chord while refining, then against densify()'s curve).
+constexpr double kKnotQTol = 5e-4;
+constexpr double kKnotQdTol = 0.05;
+constexpr double kKnotTauTol = 0.25;
+// ... at the three points checked against densify()'s curve: a fifth is kept for the error
+// between them (0.254 Nm at 1 kHz with 0.25 there on a standing jump).
+constexpr double kKnotSlopeTauTol = 0.2;
+
+// One knot of buildKnots, with the wheels' rates at the middle of the interval ending at it
+// (Simpson's rule for the wheel angles).
+struct Knot {
+  double t;
+  Segment segment;
+  PlanRow row;
+  Eigen::Vector4d wheel_mid_rate = Eigen::Vector4d::Zero();
+};
+
+// densify() interpolates the torques between knots with slopes from finite differences over
+// three knots, which the chord test of the refinement does not see: next to a corner of the
+// legs' braking (its corner speed, rest) or a phase's steep start the slopes of one side leak
+// into the other. Every interval whose torques at a quarter, half and three quarters on that
+// curve miss the plan's by more than kKnotSlopeTauTol is halved (down to min_dt / 8: the braking's
+// ramps last a few milliseconds), and its neighbours, whose slopes change, are checked again.
+void splitForTorqueSlopes(const JumpModelConstants& M, const Solved& S, double min_dt,
+                          Eigen::Vector2d c_guess, std::vector<Knot>& knots) {
+  std::vector<char> check(knots.size(), 1);  // the interval ending at each knot
+  for (int pass = 0; pass < 16; ++pass) {
+    PlanKnots K;
+    const int n = static_cast<int>(knots.size());
+    K.t.resize(n);
+    K.tau.resize(n, model::kNumJoints);
+    for (int k = 0; k < n; ++k) {
+      K.t[k] = knots[k].t;
+      K.tau.row(k) = knots[k].row.tau.transpose();
+    }
+    const Eigen::MatrixXd slope = knotTorqueSlopes(K);
+    std::vector<Knot> out;
+    std::vector<char> split_at;  // per knot of `out`: its interval was just split
+    out.reserve(2 * knots.size());
+    out.push_back(knots.front());
+    split_at.push_back(0);
+    bool split = false;
+    for (int k = 1; k < n; ++k) {
+      const Knot &a = knots[k - 1], &b = knots[k];
+      const double h = b.t - a.t;
+      std::array<PlanRow, 3> rows;  // at a quarter, half and three quarters
+      bool miss = false;
+      if (check[k] && h > 0.25 * min_dt) {
+        for (int i = 0; i < 3; ++i) {
+          const double x = 0.25 * (i + 1), x2 = x * x, x3 = x2 * x;
+          const double h00 = 2 * x3 - 3 * x2 + 1, h10 = (x3 - 2 * x2 + x) * h;
+          const double h01 = -2 * x3 + 3 * x2, h11 = (x3 - x2) * h;
+          planRow(M, S, a.t + x * h, a.segment, c_guess, rows[i]);
+          for (int j = 0; j < model::kNumJoints && !miss; ++j) {
+            const double tau = h00 * K.tau(k - 1, j) + h10 * slope(k - 1, j) + h01 * K.tau(k, j) +
+                               h11 * slope(k, j);
+            miss = std::abs(tau - rows[i].tau[j]) > kKnotSlopeTauTol;
+          }
+        }
+      }
+      if (!miss) {
+        out.push_back(b);
+        split_at.push_back(0);
+        continue;
+      }
+      split = true;
+      Knot m{a.t + 0.5 * h, a.segment, rows[1], {}};
+      Knot second = b;
+      for (int i = 0; i < 4; ++i) {  // the halves' midpoints are the quarters
+        m.wheel_mid_rate[i] = rows[0].qd[kWheelJoints[i]];
+        second.wheel_mid_rate[i] = rows[2].qd[kWheelJoints[i]];
+      }
+      out.push_back(m);
+      out.push_back(second);
+      split_at.push_back(1);
+      split_at.push_back(1);
+    }
+    knots.swap(out);
+    if (!split) return;
+    // Check again the intervals whose knots' slopes the new knots change (two either side).
+    const int m = static_cast<int>(knots.size());
+    check.assign(m, 0);
+    for (int k = 0; k < m; ++k)
+      if (split_at[k])
+        for (int i = std::max(1, k - 2); i <= std::min(m - 1, k + 2); ++i) check[i] = 1;
+  }
 }
 
 /// A plan with its header (phases, forces, postures, decision) filled, no samples yet.
@@ -205,40 +305,58 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
   const detail::Solved S = detail::solvedOrThrow(k_, u, "buildKnots");
   JumpPlan plan = detail::planHeader(k_, S);
   plan.dt = 0.0;
-  // Phases and, in flight, the corners of the leg motion (tucked, extending, extended), where
-  // the postures' second derivatives jump: a knot sits on each.
+  // Phases and the corners of the leg motion (the braking's, tucked, extending, extended),
+  // where the postures' second derivatives jump: a knot sits on each.
   struct Piece {
     double a, b;
     detail::Segment segment;
   };
   std::vector<Piece> pieces;
+  // Pieces of one segment from `a` to `b`, cut at the instants `cuts` (those inside).
+  auto add_pieces = [&](double a, double b, detail::Segment segment, std::vector<double> cuts) {
+    std::sort(cuts.begin(), cuts.end());
+    double from = a;
+    for (const double c : cuts) {
+      if (c <= from + 1e-9 || c >= b - 1e-9) continue;
+      pieces.push_back({from, c, segment});
+      from = c;
+    }
+    pieces.push_back({from, b, segment});
+  };
+  // The corners of the legs' braking (the end of the envelope-limited part, and rest).
+  auto brake_corners = [](double start, const std::array<detail::JointBrake, 2>& b,
+                          std::vector<double>& out) {
+    for (const detail::JointBrake& j : b) {
+      out.push_back(start + j.t_a);
+      out.push_back(start + j.t_stop);
+    }
+  };
   if (S.two_step) {
     pieces.push_back({0.0, S.t1, detail::Segment::FourWheels});
-    pieces.push_back({S.t1, S.t2, detail::Segment::HindOnly});
+    std::vector<double> cuts;
+    brake_corners(S.t1, S.front_brake, cuts);
+    add_pieces(S.t1, S.t2, detail::Segment::HindOnly, cuts);
   } else {
     pieces.push_back({0.0, S.t2, detail::Segment::FourWheels});
   }
-  double from = S.t2;
+  std::vector<double> cuts;
   for (const double f : {k_.settings.tuck_end_fraction, k_.settings.extend_start_fraction,
-                         k_.settings.extend_end_fraction, 1.0}) {
-    const double to = std::min(S.t2 + f * S.Tf, S.t3);
-    if (to > from + 1e-9 || f == 1.0)
-      pieces.push_back({from, f == 1.0 ? S.t3 : to, detail::Segment::Flight});
-    from = std::max(from, to);
+                         k_.settings.extend_end_fraction})
+    cuts.push_back(S.t2 + f * S.Tf);
+  for (int pair = 0; pair < 2; ++pair) {
+    brake_corners(S.t2, S.brake[pair], cuts);
+    for (int j = 0; j < 2; ++j)  // each joint's end of the tuck
+      cuts.push_back(S.t2 + S.brake[pair][j].t_stop + S.tuck_duration[pair][j]);
   }
+  add_pieces(S.t2, S.t3, detail::Segment::Flight, cuts);
   // Each piece starts with even knots at most knot_dt_s apart. An interval is then halved
   // while the references at its midpoint differ from what densify() makes of its two knots by
   // more than the tolerances below (the legs move fast as they straighten at the end of the
   // push), down to output_dt_s. The midpoint rows also give the wheel angles (Simpson).
-  constexpr double kQTol = 5e-4;    // joint position [rad]
-  constexpr double kQdTol = 0.05;   // joint velocity [rad/s]
-  constexpr double kTauTol = 0.25;  // torque, against the chord [Nm]
-  struct Knot {
-    double t;
-    detail::Segment segment;
-    detail::PlanRow row;
-    Eigen::Vector4d wheel_mid_rate = Eigen::Vector4d::Zero();  // of the interval ending here
-  };
+  using detail::kKnotQdTol;
+  using detail::kKnotQTol;
+  using detail::kKnotTauTol;
+  using detail::Knot;
   std::vector<Knot> knots;
   Eigen::Vector2d c_guess = k_.c0;
   const double min_dt = k_.settings.output_dt_s;
@@ -250,11 +368,14 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
       // Cubic Hermite at s = 1/2: value and derivative.
       const double q_mid = 0.5 * (q0 + q1) + h / 8.0 * (m0 - m1);
       const double qd_mid = 1.5 * (q1 - q0) / h - 0.25 * (m0 + m1);
-      if (std::abs(q_mid - m.row.q[j]) > kQTol || std::abs(qd_mid - m.row.qd[j]) > kQdTol ||
-          std::abs(0.5 * (a.row.tau[j] + b.row.tau[j]) - m.row.tau[j]) > kTauTol)
+      if (std::abs(q_mid - m.row.q[j]) > kKnotQTol || std::abs(qd_mid - m.row.qd[j]) > kKnotQdTol ||
+          std::abs(0.5 * (a.row.tau[j] + b.row.tau[j]) - m.row.tau[j]) > kKnotTauTol)
         return false;
     }
-    return true;
+    // The body's pitch (the legs' braking turns it within a few milliseconds after a lift-off).
+    const double p_mid =
+        0.5 * (a.row.s.pitch + b.row.s.pitch) + h / 8.0 * (a.row.s.pitch_rate - b.row.s.pitch_rate);
+    return std::abs(p_mid - m.row.s.pitch) <= kKnotQTol;
   };
   auto refine = [&](auto&& self, const Knot& a, const Knot& b) -> void {
     Knot m{0.5 * (a.t + b.t), a.segment, {}, {}};
@@ -273,9 +394,9 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
   for (std::size_t i = 0; i < pieces.size(); ++i) {
     const Piece& p = pieces[i];
     const int n = std::max(1, static_cast<int>(std::ceil((p.b - p.a) / h_max - 1e-9)));
-    // A flight piece continues the one before it: its first knot is that piece's last.
-    const bool continues = i > 0 && p.segment == detail::Segment::Flight &&
-                           pieces[i - 1].segment == detail::Segment::Flight;
+    // A piece continues the one before it in the same segment: its first knot is that
+    // piece's last.
+    const bool continues = i > 0 && p.segment == pieces[i - 1].segment;
     Knot prev{p.a, p.segment, {}, {}};
     if (continues) {
       prev = knots.back();
@@ -290,6 +411,7 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
       prev = next;
     }
   }
+  detail::splitForTorqueSlopes(k_, S, min_dt, k_.c0, knots);
   PlanKnots& K = plan.knots;
   const int count = static_cast<int>(knots.size());
   K.t.resize(count);

@@ -3,6 +3,7 @@
 // and the joint and wheel torques that balance the planned ground forces (docs/planner.md,
 // "Kinematics and statics").
 
+#include <algorithm>
 #include <cmath>
 
 #include "jump_model_internal.h"
@@ -152,7 +153,9 @@ void contactPosture(const JumpModelConstants& M, const Solved& S, double t, Samp
   LegPose& pF = out.pose_f;
   pF = LegPose{};
   if (phase2) {
-    pF = S.front_pose_t1;
+    // The lifted front pair brakes from its speeds at t1, then holds (no inverse kinematics).
+    const bool braking = local < std::max(S.front_brake[0].t_stop, S.front_brake[1].t_stop);
+    pF = braking ? poseOf(brakePosture(S.front_brake, local, nullptr)) : S.front_pose_stop;
     F.reach = S.front_reach_t1;
   }
   Eigen::Vector2d c = c_guess;
@@ -174,7 +177,7 @@ void contactPosture(const JumpModelConstants& M, const Solved& S, double t, Samp
   pH = M.leg.inversePose(relH - M.hind.hfe_b + c, &H.reach, false);
   if (F.contact) pF = M.leg.inversePose(relF - M.front.hfe_b + c, &F.reach, false);
   out.c = comOffset(M, pH, pF);
-  if (!F.contact) F.axle = com + R * (-c + M.front.hfe_b + S.front_b_t1);
+  if (!F.contact) F.axle = com + R * (-c + M.front.hfe_b + M.leg.forward(pF));
 }
 
 // The second half of contactSample, on a sample from contactPosture: joint angles, joint
@@ -224,12 +227,28 @@ void contactStatics(const JumpModelConstants& M, const Solved& S, Sample& out) {
       F.qd = Eigen::Vector2d::Constant(1e3);
     }
   } else {
+    // The lifted front pair's braking moves the CoM in the base: (J_H - C_H) qd_H =
+    // rel_H' + C_F qd_F.
+    brakePosture(S.front_brake, out.local, &F.qd);
     const Eigen::Matrix2d A = JH - C_pair[0];
-    H.qd = std::abs(A.determinant()) > 1e-12 ? Eigen::Vector2d(A.inverse() * relH_dot)
-                                             : Eigen::Vector2d(1e3, 1e3);
-    F.qd.setZero();
+    H.qd = std::abs(A.determinant()) > 1e-12
+               ? Eigen::Vector2d(A.inverse() * (relH_dot + C_pair[1] * F.qd))
+               : Eigen::Vector2d(1e3, 1e3);
     F.wheel_rate = S.front_wheel_rate_t1;
   }
+  // Where the joints come to rest if they brake from here: at its lift-off sample each pair
+  // must stop kBrakeLimitClearance short of its limits (emitContact).
+  H.q_stop = H.q;
+  F.q_stop = F.q;
+  H.brakes = F.brakes = false;
+  auto brake_from = [&](int pair, PairSample& p) {
+    const std::array<JointBrake, 2> b = startBrake(M, pair, p.q, p.qd);
+    p.q_stop = Eigen::Vector2d(b[0].q_stop, b[1].q_stop);
+    p.brakes = true;
+  };
+  const bool at_t2 = out.t >= S.t2 - 1e-9;
+  if (at_t2) brake_from(0, H);
+  if (F.contact && (at_t2 || (S.two_step && out.t >= S.t1 - 1e-9))) brake_from(1, F);
   const double local = out.local;
   const Eigen::Vector2d fH = out.phase2 ? Eigen::Vector2d(S.fHx2(local), S.fHz2(local))
                                         : Eigen::Vector2d(S.fHx1(local), S.fHz1(local));

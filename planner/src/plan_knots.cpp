@@ -36,8 +36,9 @@ struct Hermite {
   }
 };
 
-// Second-order finite-difference slopes of the knot torques within each phase [first, last].
-Eigen::MatrixXd torqueSlopes(const PlanKnots& K) {
+}  // namespace
+
+Eigen::MatrixXd knotTorqueSlopes(const PlanKnots& K) {
   const int n = K.size();
   Eigen::MatrixXd m = Eigen::MatrixXd::Zero(n, K.tau.cols());
   int first = 0;
@@ -73,8 +74,6 @@ Eigen::MatrixXd torqueSlopes(const PlanKnots& K) {
   }
   return m;
 }
-
-}  // namespace
 
 std::string checkKnots(const JumpPlan& plan) {
   const PlanKnots& K = plan.knots;
@@ -114,7 +113,7 @@ void densify(JumpPlan& plan, double dt) {
     throw std::invalid_argument(problem);
   const PlanKnots& K = plan.knots;
   const int nk = K.size();
-  const Eigen::MatrixXd tau_slope = torqueSlopes(K);
+  const Eigen::MatrixXd tau_slope = knotTorqueSlopes(K);
   const int n = static_cast<int>(std::ceil(plan.t3 / dt - 1e-9)) + 1;
   const int nj = model::kNumJoints;
   plan.dt = dt;

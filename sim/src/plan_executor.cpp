@@ -98,13 +98,25 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
   wheel_speed_ = plan.centroidal[k2].vx / model.wheelRadius();
   const int k_mid = std::clamp(static_cast<int>(std::lround(0.5 * (plan.t1 + plan.t2) / plan.dt)),
                                0, plan.numSamples() - 1);
+  brake_end_t_ = plan.t2;
+  for (int k = plan.numSamples() - 1; k >= 0 && k * plan.dt > plan.t2; --k) {
+    bool braking = false;
+    for (int j = 0; j < model::kNumJoints; ++j)
+      braking = braking || (!model::isWheel(j) && plan.tau(k, j) != 0.0);
+    if (braking) {
+      brake_end_t_ = (k + 1) * plan.dt;
+      break;
+    }
+  }
   // The plan's apex: the first sample after take-off whose CoM no longer rises.
   int k_apex = k2;
   while (k_apex < plan.numSamples() - 1 && plan.centroidal[k_apex].vz > 0.0) ++k_apex;
   t_apex_ = k_apex * plan.dt;
   hind_only_ = plan.t2 - plan.t1 > 2.0 * plan.dt;
+  // The lifted front pair carries no ground force: its HAA and wheel torques are zero (its
+  // HFE and KFE brake from their speeds at t1).
   for (const model::Leg leg : {model::Leg::LF, model::Leg::RF})
-    for (const model::JointKind kind : model::kJointKinds)
+    for (const model::JointKind kind : {model::JointKind::HAA, model::JointKind::Wheel})
       hind_only_ = hind_only_ && plan.tau(k_mid, model::jointIndex(leg, kind)) == 0.0;
 }
 
@@ -127,7 +139,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
                           model::JointCommands& out) {
   // Contact bookkeeping and phase changes.
   if (any_wheel_contact) {
-    if (airborne_ && phase_ == JumpPhase::Flight) {
+    if (airborne_ && phase_ == JumpPhase::Flight && t >= brake_end_t_) {
       phase_ = JumpPhase::Landing;
       landing_start_ = t;
       placement_td_ = calcPlacementOffset(t);
@@ -172,9 +184,12 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
         for (int j = 0; j < model::kNumJoints; ++j)
           out[j] = {plan_.q_landing[j], 0.0, 0.0, 0.0, 0.0};
       }
+      // The plan's flight feed-forward is the legs' braking after the lift-off (and zero once
+      // they are at rest): tracking the braking with the soft flight gains alone lags by
+      // 0.05-0.1 rad and runs the knee into its stop.
       for (int j = 0; j < model::kNumJoints; ++j) {
         model::JointCommand& c = out[j];
-        c.tau_ff = 0.0;
+        if (t > plan_end) c.tau_ff = 0.0;
         if (model::isWheel(j)) {
           c = {0.0, wheel_speed_, 0.0, settings_.flight_wheel_kd, 0.0};
         } else {

@@ -234,9 +234,17 @@ TEST(JumpModel, BallisticApexAndConservedAngularMomentum) {
   EXPECT_NEAR(ev.predicted.apex.t - ev.predicted.takeoff.t, to.vz / g, 1e-12);
   EXPECT_NEAR(ev.predicted.touchdown.state.z, m.landingHeight(), 1e-9);
   const JumpPlan plan = m.buildPlan(u);
-  const int k0 = static_cast<int>(plan.t2 / plan.dt) + 3, k1 = plan.numSamples() - 3;
+  // From just after the lift-off to the end (every tenth row), against the take-off's last
+  // rows. (Row by row within the legs' braking the rows' momentum is off by up to 0.023, 3 %:
+  // their pitch rate is interpolated between the attitude table's samples.)
+  const int k2 = static_cast<int>(plan.t2 / plan.dt);
+  const int k0 = k2 + 3, k1 = plan.numSamples() - 3;
   ASSERT_GT(k1 - k0, 100);
   const double h0 = angularMomentumY(plan, k0);
+  // The take-off's momentum at t2, extrapolated from its last two rows (each uses its
+  // neighbours, so neither may be the last take-off row).
+  const double h_a = angularMomentumY(plan, k2 - 2), h_b = angularMomentumY(plan, k2 - 1);
+  EXPECT_NEAR(h_b + (h_b - h_a) * (plan.t2 / plan.dt - (k2 - 1)), h0, 0.02);
   double pitch_rate_change = 0.0;
   for (int k = k0; k < k1; k += 10) {
     EXPECT_NEAR(angularMomentumY(plan, k), h0, 0.015) << "t = " << k * plan.dt;  // ~2 %
@@ -247,6 +255,61 @@ TEST(JumpModel, BallisticApexAndConservedAngularMomentum) {
   // The legs' motion does turn the body: the conservation is not a constant pitch rate.
   EXPECT_GT(pitch_rate_change, 0.05);
 }
+
+// The legs' references at the lift-off (issue 22, the dead stop): the flight's, and for a
+// two-step take-off the lifted front pair's after t1, start at the take-off joint speeds and
+// brake within the drives' envelopes, coming to rest short of the joint limits; the flight
+// feed-forward is that braking torque and nothing once at rest.
+class LiftOffBraking : public ::testing::TestWithParam<TakeoffMode> {};
+
+TEST_P(LiftOffBraking, LegsBrakeFromTheirTakeoffSpeeds) {
+  const JumpPlanner planner = makePlanner();
+  Scenario sc = makePreset(planner, "vertical");
+  sc.task.mode = GetParam();
+  const JumpModel m(robot(), planner.settings(), sc.task, sc.initial);
+  PlanOptions o;
+  o.max_evaluations = 3000;
+  o.polish = false;
+  const Eigen::VectorXd u = planner.plan(sc.task, sc.initial, o).u;
+  const JumpPlan plan = m.buildPlan(u);
+  const bool two_step = GetParam() == TakeoffMode::TwoStep;
+  const int k2 = static_cast<int>(std::floor(plan.t2 / plan.dt));
+  const int k1 = static_cast<int>(std::floor(plan.t1 / plan.dt));
+  double fastest = 0.0, strongest = 0.0;
+  for (const Leg leg : model::kLegs) {
+    const bool front = model::isFront(leg);
+    const int lift = two_step && front ? k1 : k2;  // the pair's last row in contact
+    for (const JointKind kind : {JointKind::HFE, JointKind::KFE}) {
+      const int j = model::jointIndex(leg, kind);
+      const auto& spec = robot().joints()[j];
+      fastest = std::max(fastest, std::abs(plan.qd(lift, j)));
+      // Speed continuous at the lift-off: at most one row of braking (< 6000 rad/s^2; the hind
+      // knee of the two-step take-off brakes at up to ~4900, the cubic's peak; a dead stop
+      // would be the whole 15-30 rad/s in one row).
+      EXPECT_NEAR(plan.qd(lift + 1, j), plan.qd(lift, j), 6000.0 * plan.dt) << spec.name;
+      double rest = -1.0;
+      for (int k = lift + 1; k < plan.numSamples(); ++k) {
+        const double tau = plan.tau(k, j), qd = plan.qd(k, j);
+        EXPECT_LE(std::abs(tau), spec.actuator.torqueLimit(qd) + 1e-9) << spec.name << " " << k;
+        EXPECT_GE(plan.q(k, j), spec.lower_rad + 0.02) << spec.name << " row " << k;
+        EXPECT_LE(plan.q(k, j), spec.upper_rad - 0.02) << spec.name << " row " << k;
+        if (k > lift + 1 && tau != 0.0) {
+          EXPECT_LE(tau * qd, 0.0) << "brakes " << spec.name;
+        }
+        strongest = std::max(strongest, std::abs(tau));
+        if (rest < 0.0 && tau == 0.0) rest = (k - lift) * plan.dt;
+      }
+      // At rest within 50 ms (the two-step take-off's hind hip: 47 ms).
+      EXPECT_GT(rest, 0.0) << spec.name;
+      EXPECT_LT(rest, 0.05) << spec.name;
+    }
+  }
+  EXPECT_GT(fastest, 3.0);    // there was something to brake
+  EXPECT_GT(strongest, 2.0);  // ... and a feed-forward that does it
+}
+
+INSTANTIATE_TEST_SUITE_P(Modes, LiftOffBraking,
+                         ::testing::Values(TakeoffMode::Simultaneous, TakeoffMode::TwoStep));
 
 // Hand-made candidates that violate one thing each.
 TEST(JumpModel, ConstraintEvaluatorsOnHandMadeCases) {
@@ -525,7 +588,9 @@ TEST(JumpPlanner, CutOffTrialsGiveTheSamePlan) {
 }
 
 TEST(JumpPlanner, PolishBetweenAttemptsStopsAtTheFirstFeasiblePolish) {
-  // Forward preset, seed 2: the first DE attempt ends trapped next to a feasible plan.
+  // Forward preset, seed 4: the first DE attempt ends trapped next to a feasible plan (seed 2
+  // until the legs braked after the lift-off; seed 4 now restarts 3 times without the polish
+  // between attempts, 6144 evaluations, and stops after the first with it, 2336).
   PlannerSettings s;
   s.polish_between_attempts = false;
   const JumpPlanner after_all = makePlanner(s);
@@ -533,7 +598,7 @@ TEST(JumpPlanner, PolishBetweenAttemptsStopsAtTheFirstFeasiblePolish) {
   const JumpPlanner between = makePlanner(s);
   const Scenario sc = makePreset(between, "forward");
   PlanOptions o;
-  o.seed = 2;
+  o.seed = 4;
   const PlannerResult a = after_all.plan(sc.task, sc.initial, o);
   const PlannerResult b = between.plan(sc.task, sc.initial, o);
   EXPECT_TRUE(a.evaluation.feasible);
@@ -617,7 +682,7 @@ TEST(JumpPlanner, OutOfReachTargetIsApproachedWithinTheConstraintsWithEitherSolv
     const JumpPlanner planner = makePlanner(withPolishSolver(solver));
     const Scenario sc = makePreset(planner, "backflip");
     int closer = 0;
-    for (const std::uint64_t seed : {1u, 3u, 4u}) {
+    for (const std::uint64_t seed : {3u, 5u, 7u}) {
       PlanOptions o;
       o.seed = seed;
       PlanOptions no_polish = o;

@@ -109,6 +109,15 @@ struct JumpModelConstants {
   double e0 = 0.0;
   model::ActuatorEnvelope env_haa, env_hfe, env_kfe, env_wheel;
   std::array<double, 2> lim_hfe{}, lim_kfe{};
+  /// Each pair's leg as a fixed-base two-link arm, for its joint-space inertia M(q_KFE)
+  /// (docs/planner.md, "Flight: the legs brake"): M11 = i_hip + 2 m_l1_c cos q2, M12 = i_knee
+  /// + m_l1_c cos q2, M22 = i_knee [kg m^2].
+  struct LegInertia {
+    double i_hip = 0.0;   ///< thigh about the HFE, lower leg about the knee, + m_lower l1^2
+    double i_knee = 0.0;  ///< shank and wheel (point mass) about the knee
+    double m_l1_c = 0.0;  ///< m_lower l1 |c_lower|
+  };
+  std::array<LegInertia, 2> leg_inertia{};
   Eigen::VectorXd lower, upper;  ///< search box of u
   int num_constraint_samples = 0;
   int per_contact_sample = 0, per_flight_sample = 0, num_contact_samples = 0;

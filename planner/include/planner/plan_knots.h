@@ -13,6 +13,10 @@ namespace wj::planner {
 /// at least two distinct times per phase; K x 16 joint arrays and K CoM states, all finite.
 std::string checkKnots(const JumpPlan& plan);
 
+/// The torque slopes densify() uses at each knot [Nm/s]: second-order finite differences over
+/// three knots of the same phase (one-sided at the phase's ends, the chord with two knots).
+Eigen::MatrixXd knotTorqueSlopes(const PlanKnots& knots);
+
 /// Fills plan.centroidal, q, qd and tau at the period dt (samples at min(k dt, t3), the last
 /// at t3) and sets plan.dt, from plan.knots: between two knots of one phase, positions follow
 /// the cubic Hermite curve with the knots' velocities as slopes and velocities its derivative;

@@ -92,7 +92,7 @@ struct PlannerSettings {
   double landing_kfe_rad = -1.6;
   double tuck_hfe_rad = 1.4;  ///< posture the legs tuck into in flight, to lift the wheels
   double tuck_kfe_rad = -2.5;
-  double tuck_end_fraction = 0.35;      ///< fraction of the flight by which the legs are tucked
+  double tuck_end_fraction = 0.25;      ///< fraction of the flight by which the legs are tucked
   double extend_start_fraction = 0.55;  ///< ... at which they start extending to landing
   double extend_end_fraction = 0.9;     ///< ... by which they are in the landing posture
 
