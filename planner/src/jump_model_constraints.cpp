@@ -61,6 +61,11 @@ double obstacleMargin(const BoxObstacle& box, const Eigen::Vector2d& p, double r
   return boxDistance(box, p) - r;
 }
 
+// The clearance kept from the task's obstacle: a wall's (jumped over) or a platform's (landed on).
+double requiredClearance(const JumpModelConstants& M) {
+  return M.task.landsOnObstacle() ? M.settings.platform_margin_m : M.settings.obstacle_margin_m;
+}
+
 // Body height and obstacle margins at one instant. In take-off the wheel axles come from the
 // sample; in flight from the blended leg posture `flight_q` (HFE, KFE) per pair.
 template <class Sink>
@@ -96,7 +101,7 @@ void emitBody(const JumpModelConstants& M, double t, const PlanarState& s, const
       clearance = std::min(clearance, obstacleMargin(*box, axle, M.wheel_radius, smp != nullptr,
                                                      M.task.landsOnObstacle()));
     }
-    sink(ConstraintClass::ObstacleClearance, clearance - M.settings.obstacle_margin_m, t, -3);
+    sink(ConstraintClass::ObstacleClearance, clearance - requiredClearance(M), t, -3);
   }
 }
 
@@ -260,7 +265,6 @@ bool sweepContact(const JumpModelConstants& M, const Solved& S, Sink& sink, Eval
 // landing beyond the obstacle; `stop()` is asked once, after the flight samples.
 template <class Sink, class Stop>
 bool sweepFlight(const JumpModelConstants& M, const Solved& S, Sink& sink, Stop&& stop) {
-  const auto& st = M.settings;
   // Flight: the postures and CoM offsets tabulated with the attitude (same instants).
   for (int k = 1; k <= S.n_flight; ++k) {
     const double t = S.t2 + S.Tf * k / S.n_flight;
@@ -280,12 +284,12 @@ bool sweepFlight(const JumpModelConstants& M, const Solved& S, Sink& sink, Stop&
     const Rot2 R(td.pitch);
     const Eigen::Vector2d leg = M.leg.forward(M.q_landing);
     const Eigen::Vector2d hind = com + R * (-M.c_land + M.hind.hfe_b + leg);
-    double m = hind.x() - M.wheel_radius - box.x_max - st.obstacle_margin_m;
+    double m = hind.x() - M.wheel_radius - box.x_max - requiredClearance(M);
     if (M.task.landsOnObstacle()) {
       const Eigen::Vector2d front = com + R * (-M.c_land + M.front.hfe_b + leg);
       m = std::min(hind.x() - M.wheel_radius - box.x_min,
                    box.x_max - (front.x() + M.wheel_radius)) -
-          st.obstacle_margin_m;
+          requiredClearance(M);
     }
     sink(ConstraintClass::ObstacleClearance, m, S.t3, -1);
   }
@@ -479,7 +483,7 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
   for (const ClassMargin& m : ev.margins) ev.constraints_ok = ev.constraints_ok && m.worst >= 0.0;
   ev.predicted.min_obstacle_clearance =
       k_.task.obstacle ? ev.margins[static_cast<int>(ConstraintClass::ObstacleClearance)].worst +
-                             k_.settings.obstacle_margin_m
+                             detail::requiredClearance(k_)
                        : kInf;
   ev.feasible = ev.constraints_ok && ev.target_ok;
   ev.cost = ev.penalty + ev.target_cost + k_.settings.energy_weight * ev.energy_j;

@@ -119,6 +119,7 @@ void PlannerSettings::validate() const {
   check(min_normal_force_n >= 0, "physics.min_normal_force_n", ">= 0", min_normal_force_n);
   check(min_body_clearance_m >= 0, "physics.min_body_clearance_m", ">= 0", min_body_clearance_m);
   check(obstacle_margin_m >= 0, "physics.obstacle_margin_m", ">= 0", obstacle_margin_m);
+  check(platform_margin_m >= 0, "physics.platform_margin_m", ">= 0", platform_margin_m);
   check(actuator_torque_scale > 0 && actuator_torque_scale <= 10, "physics.actuator_torque_scale",
         "in (0, 10]", actuator_torque_scale);
   check(tuck_end_fraction > 0 && tuck_end_fraction < extend_start_fraction,
@@ -320,6 +321,7 @@ PlannerSettings parse(const YAML::Node& root) {
               {"min_normal_force_n", number(s.min_normal_force_n)},
               {"min_body_clearance_m", number(s.min_body_clearance_m)},
               {"obstacle_margin_m", number(s.obstacle_margin_m)},
+              {"platform_margin_m", number(s.platform_margin_m)},
               {"actuator_torque_scale", number(s.actuator_torque_scale)},
               {"actuator_model",
                choice(s.actuator_model, std::map<std::string, ActuatorModel>{

@@ -369,6 +369,62 @@ TEST(JumpModel, ObstacleInTheWayIsReported) {
   EXPECT_LT(ev.predicted.min_obstacle_clearance, 0.0);
 }
 
+// A wall keeps obstacle_margin_m, a platform (a touchdown target over the box) keeps
+// platform_margin_m: each margin moves its own task's obstacle rows and not the other's, and the
+// predicted clearance (a distance) moves with neither.
+TEST(JumpModel, WallAndPlatformKeepTheirOwnClearanceMargins) {
+  for (const char* task : {"forward", "platform"}) {
+    SCOPED_TRACE(task);
+    const bool platform = std::string(task) == "platform";
+    // A jump the task's planner finds (the box's nominal candidate does not reach the platform).
+    const JumpPlanner planner = makePlanner();
+    const Scenario sc = makePreset(planner, task);
+    EXPECT_EQ(sc.task.landsOnObstacle(), platform);
+    PlanOptions o;
+    o.seed = 1;
+    o.threads = 1;
+    o.polish = false;
+    const Eigen::VectorXd u = planner.plan(sc.task, sc.initial, o).u;
+    auto obstacleRows = [&](double wall_margin, double platform_margin) {
+      PlannerSettings s;
+      s.obstacle_margin_m = wall_margin;
+      s.platform_margin_m = platform_margin;
+      const JumpModel m(robot(), s, sc.task, sc.initial);
+      Evaluation ev;
+      m.evaluate(u, ev);
+      EXPECT_TRUE(ev.valid);
+      return std::pair{ev.margins[static_cast<int>(ConstraintClass::ObstacleClearance)].worst,
+                       ev.predicted.min_obstacle_clearance};
+    };
+    const auto [base, clearance] = obstacleRows(0.02, 0.02);
+    ASSERT_TRUE(std::isfinite(base));
+    const auto [wall, wall_clearance] = obstacleRows(0.05, 0.02);
+    const auto [top, top_clearance] = obstacleRows(0.02, 0.05);
+    EXPECT_NEAR(wall, platform ? base : base - 0.03, 1e-12);
+    EXPECT_NEAR(top, platform ? base - 0.03 : base, 1e-12);
+    EXPECT_NEAR(wall_clearance, clearance, 1e-12);
+    EXPECT_NEAR(top_clearance, clearance, 1e-12);
+  }
+}
+
+// The robot client's service settings (config/planner_settings.yaml, docs/robust.md) read
+// strictly, and with them the forward preset plans over its wall with the 5 cm margin.
+TEST(PlannerSettings, ServiceSettingsPlanTheForwardWallWithTheirMargin) {
+  const PlannerSettings s = PlannerSettings::fromYaml(WJ_CONFIG_DIR "/planner_settings.yaml");
+  EXPECT_DOUBLE_EQ(s.obstacle_margin_m, 0.05);
+  EXPECT_DOUBLE_EQ(s.platform_margin_m, 0.02);
+  const JumpPlanner planner = makePlanner(s);
+  const Scenario sc = makePreset(planner, "forward");
+  PlanOptions o;
+  o.seed = 7;
+  o.threads = 1;
+  const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+  ASSERT_TRUE(r.evaluation.feasible) << r.summary;
+  EXPECT_GE(r.evaluation.predicted.min_obstacle_clearance, 0.05);
+  EXPECT_THROW((void)PlannerSettings::fromYamlString("physics: {platform_margin_m: -0.01}\n"),
+               std::runtime_error);
+}
+
 TEST(JumpModel, PenaltyFollowsThePrioritizedForm) {
   // Paper Eq. 10: a violated class n adds W_n (10^(n+3) + 10^n sigma_n).
   const JumpPlanner planner = makePlanner();

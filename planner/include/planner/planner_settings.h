@@ -72,7 +72,12 @@ struct PlannerSettings {
   double friction_mu = 0.7;            ///< Coulomb friction coefficient wheel-ground
   double min_normal_force_n = 5.0;     ///< per wheel while in contact [N]
   double min_body_clearance_m = 0.04;  ///< lowest body point above the ground [m]
-  double obstacle_margin_m = 0.02;     ///< required clearance to the obstacle [m]
+  /// Clearance kept from an obstacle the jump clears (a wall) [m]. The robot client's service
+  /// plans with 0.05 (config/planner_settings.yaml; docs/robust.md, "Where the clearance comes
+  /// from").
+  double obstacle_margin_m = 0.02;
+  /// The same for an obstacle the jump lands on (a platform): its near edge and faces [m].
+  double platform_margin_m = 0.02;
   /// Scales every actuator's peak torque in the planner's model (what-if studies of stronger
   /// motors; 1 = the URDF's figures).
   double actuator_torque_scale = 1.0;
@@ -90,7 +95,10 @@ struct PlannerSettings {
   double stand_kfe_rad = -2.0;
   double landing_hfe_rad = 0.8;  ///< posture the legs take in flight and at landing
   double landing_kfe_rad = -1.6;
-  double tuck_hfe_rad = 1.4;  ///< posture the legs tuck into in flight, to lift the wheels
+  /// Posture the legs tuck into in flight, to lift the wheels. The robot client's service tucks
+  /// to HFE 1.0 by 0.15 of the flight (config/planner_settings.yaml): the front wheels pass a
+  /// 0.25 m wall's near edge 18 % into the flight (docs/robust.md).
+  double tuck_hfe_rad = 1.4;
   double tuck_kfe_rad = -2.5;
   double tuck_end_fraction = 0.25;      ///< fraction of the flight by which the legs are tucked
   double extend_start_fraction = 0.55;  ///< ... at which they start extending to landing
