@@ -26,9 +26,19 @@ void inRange(double v, double lo, double hi, const std::string& field) {
   require(v >= lo && v <= hi, field, range.str(), v);
 }
 
+// The fastest backward run-up [m/s]: the backflips planned rolling backward start at 0.5-1 m/s
+// (docs/backflip.md); beyond 1.5 m/s nothing has been planned or verified.
+constexpr double kMaxBackwardRunUp = 1.5;
+
 void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.stand_s, 0.0, 60.0, p + "stand_s");
-  inRange(s.run_up_speed_m_s, 0.0, 5.0, p + "run_up_speed_m_s");
+  // Negative: rolling backward into the jump (the backflip's run-up, docs/backflip.md); walls
+  // stand ahead, so a backward run-up has none.
+  inRange(s.run_up_speed_m_s, -kMaxBackwardRunUp, 5.0, p + "run_up_speed_m_s");
+  if (s.run_up_speed_m_s < 0.0 && s.has_wall)
+    throw std::invalid_argument("robot client settings: " + p +
+                                "run_up_speed_m_s < 0 (a backward run-up) needs wall.enabled "
+                                "false: the walls stand ahead of the robot");
   inRange(s.acceleration_m_s2, 0.1, 5.0, p + "acceleration_m_s2");
   if (s.wall_x_m.empty())
     throw std::invalid_argument("robot client settings: " + p +

@@ -205,6 +205,31 @@ TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
   EXPECT_EQ(s.scenario("forward").actuators_file, "actuators.yaml");
 }
 
+TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
+  const std::string anchor = "(issue 17, docs/backflip.md)\n    run_up_speed_m_s: ";
+  const std::string back = replace(shippedConfig(), anchor + "0.0", anchor + "-1.0");
+  ASSERT_NE(back, shippedConfig());
+  EXPECT_DOUBLE_EQ(parseClientSettings(back, "x.yaml").scenario("backflip").run_up_speed_m_s, -1.0);
+  const auto message = [](const std::string& text) {
+    try {
+      (void)parseClientSettings(text, "x.yaml");
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string too_fast = replace(back, anchor + "-1.0", anchor + "-2.0");
+  EXPECT_NE(message(too_fast).find("scenarios.backflip.run_up_speed_m_s must be in [-1.5, 5]"),
+            std::string::npos)
+      << message(too_fast);
+  // Walls stand ahead: a forward scenario's wall with a backward run-up is refused.
+  const std::string into_wall =
+      replace(shippedConfig(), "run_up_speed_m_s: 3.0", "run_up_speed_m_s: -1.0");
+  ASSERT_NE(into_wall, shippedConfig());
+  EXPECT_NE(message(into_wall).find("needs wall.enabled false"), std::string::npos)
+      << message(into_wall);
+}
+
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
   const std::string on = replace(shippedConfig(), "    enabled: false\n    root_ca_file",
                                  "    enabled: true\n    root_ca_file");
