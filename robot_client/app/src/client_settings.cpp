@@ -26,15 +26,22 @@ void inRange(double v, double lo, double hi, const std::string& field) {
   require(v >= lo && v <= hi, field, range.str(), v);
 }
 
-// The fastest backward run-up [m/s]: the backflips planned rolling backward start at 0.5-1 m/s
-// (docs/backflip.md); beyond 1.5 m/s nothing has been planned or verified.
-constexpr double kMaxBackwardRunUp = 1.5;
+// The fastest backward run-up [m/s]: the planner's lowest initial speed (InitialState::validate,
+// -1 m/s); the backflips planned rolling backward start at 0.5-1 m/s (docs/backflip.md).
+constexpr double kMaxBackwardRunUp = 1.0;
 
 void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.stand_s, 0.0, 60.0, p + "stand_s");
   // Negative: rolling backward into the jump (the backflip's run-up, docs/backflip.md); walls
   // stand ahead, so a backward run-up has none.
   inRange(s.run_up_speed_m_s, -kMaxBackwardRunUp, 5.0, p + "run_up_speed_m_s");
+  // The plan is requested at the measured speed, within speed_tolerance_m_s of the run-up's.
+  if (s.run_up_speed_m_s < 0.0)
+    require(s.run_up_speed_m_s - s.speed_tolerance_m_s >= -kMaxBackwardRunUp,
+            p + "run_up_speed_m_s - speed_tolerance_m_s",
+            ">= -" + std::to_string(kMaxBackwardRunUp).substr(0, 3) +
+                " m/s (the planner's lowest initial speed)",
+            s.run_up_speed_m_s - s.speed_tolerance_m_s);
   if (s.run_up_speed_m_s < 0.0 && s.has_wall)
     throw std::invalid_argument("robot client settings: " + p +
                                 "run_up_speed_m_s < 0 (a backward run-up) needs wall.enabled "

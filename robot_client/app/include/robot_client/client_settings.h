@@ -89,7 +89,7 @@ std::string_view toString(AfterLanding after);
 struct ScenarioSettings {
   std::string name = "forward";
   double stand_s = 1.0;  ///< standing before anything starts [s]
-  /// Along the heading [m/s], in [-1.5, 5]: 0 = jump from standing, negative = rolling
+  /// Along the heading [m/s], in [-1, 5]: 0 = jump from standing, negative = rolling
   /// backward into the jump (no wall).
   double run_up_speed_m_s = 3.0;
   double acceleration_m_s2 = 1.5;  ///< run-up acceleration [m/s^2]
