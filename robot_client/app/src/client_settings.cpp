@@ -180,6 +180,10 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
   e.landing_pitch_kp = m.number("landing_pitch_kp");
   e.landing_pitch_kd = m.number("landing_pitch_kd");
   e.landing_pitch_max_nm = m.number("landing_pitch_max_nm");
+  e.hind_pitch_kp = m.number("hind_pitch_kp");
+  e.hind_pitch_kd = m.number("hind_pitch_kd");
+  e.hind_pitch_max_nm = m.number("hind_pitch_max_nm");
+  e.lifted_pair_margin_rad = m.number("lifted_pair_margin_rad");
   m.finish();
   return e;
 }
