@@ -3,8 +3,8 @@
 # robot behind emulated CAN frames) against one planner_server on loopback with an empty cache,
 # then N seeds of the jump onto the 0.25 m platform (simulated robot), then N seeds of the
 # course (two walls 10 m apart, jumped in turn), then the vertical jump, then N seeds of the
-# backflip (from standing, against a second service on the 57 Nm-knee robot of the scenario's
-# actuators_file; docs/backflip.md).
+# backflip (rolling backward at 0.95 m/s, against a second service on the 57 Nm-knee robot of
+# the scenario's actuators_file; docs/backflip.md).
 # Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
 set -euo pipefail

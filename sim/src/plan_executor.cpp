@@ -52,6 +52,7 @@ void ExecutorSettings::validate() const {
   requireNonNegative(hind_pitch_kp, "hind_pitch_kp");
   requireNonNegative(hind_pitch_kd, "hind_pitch_kd");
   requireNonNegative(hind_pitch_max_nm, "hind_pitch_max_nm");
+  requireNonNegative(lifted_pair_margin_rad, "lifted_pair_margin_rad");
   if (!(touchdown_pitch_placement >= 0.0 && touchdown_pitch_placement <= 1.0))
     throw std::invalid_argument("executor settings: touchdown_pitch_placement must be in [0, 1]");
   requireNonNegative(touchdown_placement_max_rad, "touchdown_placement_max_rad");
@@ -170,7 +171,10 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
   switch (phase_) {
     case JumpPhase::Takeoff:
       sample(t, out);
-      if (hind_only_ && t >= plan_.t1) addHindPitchFeedback(t, R_WB * sensors.imu.omega_B, out);
+      if (hind_only_ && t >= plan_.t1) {
+        addHindPitchFeedback(t, R_WB * sensors.imu.omega_B, out);
+        keepLiftedPairInRange(out);
+      }
       return;
     case JumpPhase::Flight: {
       // The plan's own flight references while they last (the planner moves the legs to
@@ -282,6 +286,16 @@ void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
                  -settings_.landing_pitch_max_nm, 0.0);
   for (int leg = 0; leg < model::kNumLegs; ++leg)
     out[model::jointIndex(static_cast<model::Leg>(leg), model::JointKind::Wheel)].tau_ff += dtau;
+}
+
+void PlanExecutor::keepLiftedPairInRange(model::JointCommands& out) const {
+  const double margin = settings_.lifted_pair_margin_rad;
+  for (const model::Leg leg : {model::Leg::LF, model::Leg::RF})
+    for (const model::JointKind kind : {model::JointKind::HFE, model::JointKind::KFE}) {
+      const int j = model::jointIndex(leg, kind);
+      const model::JointSpec& spec = model_.joints()[j];
+      out[j].q_des = std::clamp(out[j].q_des, spec.lower_rad + margin, spec.upper_rad - margin);
+    }
 }
 
 void PlanExecutor::addHfeOffset(double offset, model::JointCommands& out) const {

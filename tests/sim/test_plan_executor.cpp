@@ -121,5 +121,30 @@ TEST(PlanExecutor, NegativePitchGainsAreRejectedByName) {
   }
 }
 
+// On the hind wheels the lifted front legs' references stay lifted_pair_margin_rad inside their
+// range (the plan rests the front knee 0.03 rad from its stop); before t1 and on the hind legs
+// the plan's references pass unchanged.
+TEST(PlanExecutor, TheLiftedPairIsKeptInsideItsRangeOnTheHindWheels) {
+  const model::RobotModel robot = loadRobot();
+  planner::JumpPlan plan = makePlan(0.0);
+  const int lf_kfe = jointIndex(Leg::LF, JointKind::KFE),
+            lh_kfe = jointIndex(Leg::LH, JointKind::KFE);
+  const double upper = robot.joints()[lf_kfe].upper_rad;
+  plan.q.col(lf_kfe).setConstant(upper - 0.03);
+  plan.q.col(lh_kfe).setConstant(upper - 0.03);
+  ExecutorSettings s = gains(0.0, 0.0, 0.0);
+  s.lifted_pair_margin_rad = 0.12;
+  PlanExecutor ex(robot, plan, s, 9.81);
+  model::JointCommands c{};
+  ex.update(0.0, pitched(0.0, 0.0), true, c);
+  ex.update(0.05, pitched(0.0, 0.0), true, c);  // four-wheel push: as planned
+  EXPECT_NEAR(c[lf_kfe].q_des, upper - 0.03, 1e-12);
+  ex.update(0.2, pitched(0.0, 0.0), true, c);  // hind-only: the lifted knee kept inside
+  EXPECT_NEAR(c[lf_kfe].q_des, upper - 0.12, 1e-12);
+  EXPECT_NEAR(c[lh_kfe].q_des, upper - 0.03, 1e-12);
+  s.lifted_pair_margin_rad = -0.1;
+  EXPECT_THROW(PlanExecutor(robot, plan, s, 9.81), std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace wj::sim

@@ -26,9 +26,26 @@ void inRange(double v, double lo, double hi, const std::string& field) {
   require(v >= lo && v <= hi, field, range.str(), v);
 }
 
+// The fastest backward run-up [m/s]: the planner's lowest initial speed (InitialState::validate,
+// -1 m/s); the backflips planned rolling backward start at 0.5-1 m/s (docs/backflip.md).
+constexpr double kMaxBackwardRunUp = 1.0;
+
 void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.stand_s, 0.0, 60.0, p + "stand_s");
-  inRange(s.run_up_speed_m_s, 0.0, 5.0, p + "run_up_speed_m_s");
+  // Negative: rolling backward into the jump (the backflip's run-up, docs/backflip.md); walls
+  // stand ahead, so a backward run-up has none.
+  inRange(s.run_up_speed_m_s, -kMaxBackwardRunUp, 5.0, p + "run_up_speed_m_s");
+  // The plan is requested at the measured speed, within speed_tolerance_m_s of the run-up's.
+  if (s.run_up_speed_m_s < 0.0)
+    require(s.run_up_speed_m_s - s.speed_tolerance_m_s >= -kMaxBackwardRunUp,
+            p + "run_up_speed_m_s - speed_tolerance_m_s",
+            ">= -" + std::to_string(kMaxBackwardRunUp).substr(0, 3) +
+                " m/s (the planner's lowest initial speed)",
+            s.run_up_speed_m_s - s.speed_tolerance_m_s);
+  if (s.run_up_speed_m_s < 0.0 && s.has_wall)
+    throw std::invalid_argument("robot client settings: " + p +
+                                "run_up_speed_m_s < 0 (a backward run-up) needs wall.enabled "
+                                "false: the walls stand ahead of the robot");
   inRange(s.acceleration_m_s2, 0.1, 5.0, p + "acceleration_m_s2");
   if (s.wall_x_m.empty())
     throw std::invalid_argument("robot client settings: " + p +
@@ -163,6 +180,10 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
   e.landing_pitch_kp = m.number("landing_pitch_kp");
   e.landing_pitch_kd = m.number("landing_pitch_kd");
   e.landing_pitch_max_nm = m.number("landing_pitch_max_nm");
+  e.hind_pitch_kp = m.number("hind_pitch_kp");
+  e.hind_pitch_kd = m.number("hind_pitch_kd");
+  e.hind_pitch_max_nm = m.number("hind_pitch_max_nm");
+  e.lifted_pair_margin_rad = m.number("lifted_pair_margin_rad");
   m.finish();
   return e;
 }

@@ -107,7 +107,7 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
       enter(Mode::Damping, fault, in);
     }
   }
-  const bool standing_jump = scenario_.run_up_speed_m_s <= 0.0;
+  const bool standing_jump = scenario_.run_up_speed_m_s == 0.0;
   const auto abort = [&](Reason why) {
     abort_reason_ = why;
     out.brake = true;
@@ -124,7 +124,7 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
           enter(Mode::Plan, Reason::PlanRequested, in);
         } else {
           out.start_roll = true;
-          ramp_end_t_ = in.t + scenario_.run_up_speed_m_s / scenario_.acceleration_m_s2;
+          ramp_end_t_ = in.t + std::abs(scenario_.run_up_speed_m_s) / scenario_.acceleration_m_s2;
           enter(Mode::Roll, Reason::Start, in);
         }
       }

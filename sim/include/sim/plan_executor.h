@@ -40,6 +40,12 @@ struct ExecutorSettings {
   /// Plans without flight samples: quintic blend from the take-off state to q_landing [s].
   double flight_blend_s = 0.12;
   double joint_limit_margin_rad = 0.05;  ///< flight references stay this far inside the range
+  /// The lifted front pair's HFE and KFE references stay this far inside their range while the
+  /// robot stands on its hind wheels [rad]. The plan brings them to rest 0.03 rad from a stop
+  /// (a flip's front knees at their extended end), and the body's pitch acceleration and rate
+  /// load them there: tracking with the take-off gains lagged by up to 0.09 rad, 0.02-0.04 rad
+  /// past the knee's range (docs/backflip.md, "Session 12").
+  double lifted_pair_margin_rad = 0.12;
   /// Leg stiffness of the landing posture [Nm/rad]: the robot client's (config/
   /// robot_client.yaml); 60 let the robot tip onto its front wheels while braking from 3 m/s.
   double landing_kp = 120.0;
@@ -139,6 +145,9 @@ class PlanExecutor {
  private:
   // Plan references interpolated linearly at time t (take-off gains).
   void sample(double t, model::JointCommands& out) const;
+  // Keeps the lifted front pair's HFE and KFE references lifted_pair_margin_rad inside their
+  // range while the robot stands on its hind wheels.
+  void keepLiftedPairInRange(model::JointCommands& out) const;
   // Adds the body pitch feedback of the hind-only push to the hind wheels' torques.
   void addHindPitchFeedback(double t, const Eigen::Vector3d& omega_W,
                             model::JointCommands& out) const;

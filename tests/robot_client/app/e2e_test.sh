@@ -7,9 +7,10 @@
 # apex). platform: run-up, jump onto the 0.25 m platform, land on its top, roll on, stop there.
 # course: two 0.25 m walls 10 m apart (at 14 and 24 m, as shipped), both jumped without a stop
 # between them, then a stop.
-# backflip: from standing on the 57 Nm-knee robot (its own service): the planner's flip is asked
-# for and answered on that robot; the robot either flips (a full turn, upright, stopped) or,
-# while the service's Simbody check refuses the flip (docs/backflip.md), does not jump and stands.
+# backflip: rolling backward (0.95 m/s) on the 57 Nm-knee robot (its own service): the planner's
+# flip is asked for and answered on that robot; the robot either flips (a full turn, upright,
+# stopped) or, while the service's Simbody check refuses the flip (docs/backflip.md), does not
+# jump, brakes and stands.
 # abort: the service is unreachable; the robot must not jump and
 # must stop before the wall. The test configuration gives the planner a longer deadline and the
 # wall more run-up room than the shipped one, because CI machines are slower and shared.

@@ -197,12 +197,44 @@ TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
   const ScenarioSettings& flip = s.scenario("backflip");
   EXPECT_EQ(flip.mode, planner::TakeoffMode::TwoStep);
   EXPECT_NEAR(flip.target_pitch_change_rad, 2.0 * M_PI, 1e-3);
-  EXPECT_LT(flip.target_dx_m, 0.0);  // lands behind the start
-  EXPECT_DOUBLE_EQ(flip.run_up_speed_m_s, 0.0);
+  EXPECT_LT(flip.target_dx_m, 0.0);                // lands behind the start
+  EXPECT_DOUBLE_EQ(flip.run_up_speed_m_s, -0.95);  // rolling backward into it
   EXPECT_FALSE(flip.has_wall);
   // The robot is chosen by configuration: the paper's 57 Nm knee (docs/backflip.md).
   EXPECT_EQ(flip.actuators_file, "actuators-57nm.yaml");
   EXPECT_EQ(s.scenario("forward").actuators_file, "actuators.yaml");
+}
+
+TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
+  // The shipped backflip rolls backward at 0.95 m/s.
+  const std::string anchor = "(issue 17, docs/backflip.md)\n    run_up_speed_m_s: ";
+  const std::string back = shippedConfig();
+  ASSERT_NE(back.find(anchor + "-0.95"), std::string::npos);
+  EXPECT_DOUBLE_EQ(parseClientSettings(back, "x.yaml").scenario("backflip").run_up_speed_m_s,
+                   -0.95);
+  const auto message = [](const std::string& text) {
+    try {
+      (void)parseClientSettings(text, "x.yaml");
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string too_fast = replace(back, anchor + "-0.95", anchor + "-1.2");
+  EXPECT_NE(message(too_fast).find("scenarios.backflip.run_up_speed_m_s must be in [-1, 5]"),
+            std::string::npos)
+      << message(too_fast);
+  // The measured speed may be speed_tolerance_m_s (0.03) faster: below the planner's -1 m/s.
+  const std::string edge = replace(back, anchor + "-0.95", anchor + "-1.0");
+  EXPECT_NE(message(edge).find("run_up_speed_m_s - speed_tolerance_m_s must be >= -1.0 m/s"),
+            std::string::npos)
+      << message(edge);
+  // Walls stand ahead: a forward scenario's wall with a backward run-up is refused.
+  const std::string into_wall =
+      replace(shippedConfig(), "run_up_speed_m_s: 3.0", "run_up_speed_m_s: -0.5");
+  ASSERT_NE(into_wall, shippedConfig());
+  EXPECT_NE(message(into_wall).find("needs wall.enabled false"), std::string::npos)
+      << message(into_wall);
 }
 
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {

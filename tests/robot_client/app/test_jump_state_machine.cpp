@@ -393,5 +393,45 @@ TEST(JumpStateMachine, VerticalJumpWithoutPlanStaysStanding) {
   EXPECT_EQ(d.requests, 1);
 }
 
+// The backflip's run-up (docs/backflip.md): roll backward to the run-up speed, request the plan
+// at that speed, take off as soon as it is in hand (no wall, no take-off point).
+TEST(JumpStateMachine, ABackwardRunUpRollsBackThenRequestsAtSpeedAndJumps) {
+  ScenarioSettings s = vertical();
+  s.name = "backflip";
+  s.run_up_speed_m_s = -1.0;
+  s.acceleration_m_s2 = 1.0;
+  Drive d(s);
+  ASSERT_TRUE(d.until(Mode::Roll, 2.0));
+  EXPECT_NEAR(d.in.t, 1.0, 0.011);
+  EXPECT_EQ(d.rolls, 1);
+  EXPECT_EQ(d.requests, 0);
+  d.in.speed = -0.5;  // still accelerating backward
+  d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Roll);
+  d.in.speed = -1.0;  // at speed, but the ramp (1 m/s / 1 m/s^2) has not ended: no request yet
+  d.tick();
+  EXPECT_EQ(d.fsm.mode(), Mode::Roll);
+  ASSERT_TRUE(d.until(Mode::Plan, 3.0));
+  EXPECT_NEAR(d.in.t, 2.0, 0.011);
+  EXPECT_EQ(d.requests, 1);
+  d.in.plan = PlanStatus::Feasible;
+  EXPECT_EQ(d.tick().mode, Mode::Takeoff);  // moving backward, it still takes off at once
+  EXPECT_EQ(d.takeoffs, 1);
+}
+
+TEST(JumpStateMachine, ABackwardRunUpWithoutAPlanBrakesToAStop) {
+  ScenarioSettings s = vertical();
+  s.run_up_speed_m_s = -1.0;
+  Drive d(s);
+  d.in.speed = -1.0;
+  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
+  d.in.plan = PlanStatus::Infeasible;
+  const FsmOutput out = d.tick();
+  EXPECT_EQ(out.mode, Mode::Brake);
+  EXPECT_TRUE(out.brake);
+  EXPECT_EQ(d.fsm.abortReason(), Reason::PlanInfeasible);
+  EXPECT_EQ(d.takeoffs, 0);
+}
+
 }  // namespace
 }  // namespace wj::robot_client

@@ -88,8 +88,10 @@ std::string_view toString(AfterLanding after);
 /// jump in place.
 struct ScenarioSettings {
   std::string name = "forward";
-  double stand_s = 1.0;            ///< standing before anything starts [s]
-  double run_up_speed_m_s = 3.0;   ///< [m/s]; 0 = jump from standing
+  double stand_s = 1.0;  ///< standing before anything starts [s]
+  /// Along the heading [m/s], in [-1, 5]: 0 = jump from standing, negative = rolling
+  /// backward into the jump (no wall).
+  double run_up_speed_m_s = 3.0;
   double acceleration_m_s2 = 1.5;  ///< run-up acceleration [m/s^2]
   /// The plan is requested once the speed ramp has ended and the speed is this close to the
   /// run-up speed: the plan starts from the measured v0, so it must be the take-off speed.
