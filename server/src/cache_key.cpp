@@ -177,8 +177,10 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // Newton matrix built without the bound rows, which changes its last bits; 7: the QP's rows
   // screened against the step box; 8: a touchdown target over the obstacle lands on it, which
   // the probes below, over the ground beyond their box, do not see; 9: the backflip's box and
-  // initial guess below), which the probes below, run without the polish, do not see.
-  w.put(std::uint32_t{9});
+  // initial guess below; 10: a backflip's hind roll from its phase-1 speed at t1, which no probe
+  // (none is a flip) sees, and platform_margin_m below), which the probes below, run without
+  // the polish, do not see.
+  w.put(std::uint32_t{10});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -213,6 +215,8 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   }
   w.put(static_cast<std::uint64_t>(s.flip_initial_guess.size()));
   for (const double v : s.flip_initial_guess) w.putDouble(v);
+  // The clearance a platform landing keeps (no probe lands on a box).
+  w.putDouble(s.platform_margin_m);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

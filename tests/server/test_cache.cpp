@@ -124,6 +124,9 @@ TEST(SettingsHash, StableAndSensitiveToEveryKindOfSetting) {
   EXPECT_TRUE(changed([](auto& s) { s.t1_s[1] = 0.55; }));
   EXPECT_TRUE(changed([](auto& s) { s.energy_weight = 2e-3; }));
   EXPECT_TRUE(changed([](auto& s) { s.tolerance_dx_m = 0.03; }));
+  EXPECT_TRUE(changed([](auto& s) { s.obstacle_margin_m = 0.05; }));
+  EXPECT_TRUE(changed([](auto& s) { s.platform_margin_m = 0.03; }));  // no probe lands on a box
+  EXPECT_TRUE(changed([](auto& s) { s.tuck_end_fraction = 0.15; }));
   // The solver's settings, field by field.
   EXPECT_TRUE(changed([](auto& s) { s.de.population_size = 33; }));
   EXPECT_TRUE(changed([](auto& s) { s.de.strategy = planner::de::Strategy::Rand1Bin; }));
