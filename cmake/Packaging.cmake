@@ -52,6 +52,10 @@ if(TARGET planner_server)
   foreach(profile ${WJ_PROFILES})
     wj_install_conffile(planner_server ${WJ_DEPLOY_DIR}/profiles/${profile}/planner_server.yaml
                         ${WJ_ETC_DIR}/profiles/${profile})
+    # Its planner settings (settings_file: a path beside it), the same in every profile: the
+    # profiles' planner_settings.yaml are links to config/'s.
+    wj_install_conffile(planner_server ${WJ_CONFIG_DIR}/planner_settings.yaml
+                        ${WJ_ETC_DIR}/profiles/${profile})
   endforeach()
   install(FILES ${WJ_DEPLOY_DIR}/systemd/wheeljump-planner.service DESTINATION ${WJ_UNIT_DIR}
           COMPONENT planner_server)

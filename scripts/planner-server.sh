@@ -23,10 +23,11 @@ start_planner_server() {
     robot=(-e "s|^actuators_file: .*|actuators_file: ${actuators}|"
            -e "s|^  settings_file: .*|  settings_file: \"\"|")
   fi
-  # The shipped settings_file is relative to the repository: made absolute here.
+  # The shipped settings_file is beside the shipped config (a relative path is resolved against
+  # the config's folder); the config is written elsewhere, so the path is made absolute here.
   sed -e "s|^listen: .*|listen: \"127.0.0.1:${port}\"|" \
       -e "s|^  path: .*|  path: \"${cache}\"|" "${robot[@]}" \
-      -e "s|^  settings_file: \"config/|  settings_file: \"${WJ_PLANNER_SERVER_SH_DIR}/../config/|" \
+      -e "s|^  settings_file: \"planner_settings.yaml\"|  settings_file: \"${WJ_PLANNER_SERVER_SH_DIR}/../config/planner_settings.yaml\"|" \
       "$WJ_PLANNER_SERVER_SH_DIR/../config/planner_server.yaml" > "$config"
   "$bin/planner_server" --config "$config" > "$log" 2>&1 &
   SERVER=$!

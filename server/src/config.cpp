@@ -427,7 +427,13 @@ ServerConfig ServerConfig::fromYamlFile(const std::filesystem::path& path) {
   if (!in) throw std::runtime_error("server config: cannot open " + path.string());
   std::stringstream ss;
   ss << in.rdbuf();
-  return fromYamlString(ss.str(), path.string());
+  ServerConfig c = fromYamlString(ss.str(), path.string());
+  // A relative settings file is beside the configuration (a profile's folder), not in the
+  // working directory of whoever starts the service.
+  for (std::string* file : {&c.planner.settings_file, &c.verification.sim_settings_file})
+    if (!file->empty() && std::filesystem::path(*file).is_relative())
+      *file = (path.parent_path() / *file).lexically_normal().string();
+  return c;
 }
 
 std::string ServerConfig::toYaml() const {

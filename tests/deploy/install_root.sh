@@ -28,7 +28,8 @@ done
 # Files where the units and the documentation say they are.
 for f in usr/bin/planner_server usr/bin/planner_cli usr/bin/wheeljump-profile \
   usr/share/wheeljump/models/wheeljump.urdf lib/systemd/system/wheeljump-planner.service \
-  etc/wheeljump/profiles/nuc/planner_server.yaml etc/wheeljump/profiles/workstation/planner_server.yaml; do
+  etc/wheeljump/profiles/nuc/planner_server.yaml etc/wheeljump/profiles/workstation/planner_server.yaml \
+  etc/wheeljump/profiles/nuc/planner_settings.yaml etc/wheeljump/profiles/workstation/planner_settings.yaml; do
   [ -e "$root/$f" ] || fail "/$f is not installed"
 done
 # postinst of wheeljump-common selected the nuc profile.
@@ -53,8 +54,10 @@ done
 "$server" --check-config "$root/etc/wheeljump/active/planner_server.yaml" >/dev/null || fail "active profile rejected"
 
 # Start the installed binary on the nuc profile (cache moved into the scratch root, an ephemeral
-# port) and stop it with SIGTERM, as systemd would.
-sed "s|/var/lib/wheeljump-planner|$root/var/lib/wheeljump-planner|" \
+# port) and stop it with SIGTERM, as systemd would. The copy is elsewhere: its planner settings
+# file (a path relative to the profile) is named absolutely.
+sed -e "s|/var/lib/wheeljump-planner|$root/var/lib/wheeljump-planner|" \
+  -e "s|^  settings_file: \"planner_settings.yaml\"|  settings_file: \"$root/etc/wheeljump/profiles/nuc/planner_settings.yaml\"|" \
   "$root/etc/wheeljump/profiles/nuc/planner_server.yaml" >"$root/run-nuc.yaml"
 mkdir -p "$root/var/lib/wheeljump-planner"
 log="$root/run-nuc.log"

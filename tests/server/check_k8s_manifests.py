@@ -117,12 +117,23 @@ def main():
     # The server's own strict reader accepts the configuration.
     text = cm["data"][Path(cfg_arg).name]
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "planner_server.yaml"
-        path.write_text(text)
+        # Every key of the ConfigMap, as the pod sees the mount (the planner settings file the
+        # config names is beside it).
+        for name, content in cm["data"].items():
+            (Path(tmp) / name).write_text(content)
+        path = Path(tmp) / Path(cfg_arg).name
         run = subprocess.run([args.server, "--check-config", str(path)],
                              capture_output=True, text=True, timeout=60)
         need(run.returncode == 0, f"planner_server refuses the ConfigMap's config: {run.stderr}")
     config = yaml.safe_load(text)
+    # The planner settings are the shipped ones (config/planner_settings.yaml), not a copy that
+    # drifted.
+    settings = config["planner"]["settings_file"]
+    need(settings == "planner_settings.yaml" and settings in cm["data"],
+         f"planner.settings_file {settings!r} is the ConfigMap's planner_settings.yaml")
+    shipped = yaml.safe_load((Path(args.source_dir) / "config/planner_settings.yaml").read_text())
+    need(yaml.safe_load(cm["data"].get("planner_settings.yaml", "")) == shipped,
+         "the ConfigMap's planner_settings.yaml equals config/planner_settings.yaml")
     need(config["listen"].rsplit(":", 1)[1] == str(grpc_port), "config listen port = gRPC port")
     need(config["listen"].startswith("0.0.0.0:"), "config listens on the pod address")
     cache = config["cache"]

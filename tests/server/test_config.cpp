@@ -2,6 +2,7 @@
 // configuration round-trips, the sample file is valid, plaintext only on loopback.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -48,6 +49,25 @@ TEST(ServerConfig, SampleFileIsValidAndNucLike) {
   EXPECT_DOUBLE_EQ(c.cache.v0_bin_m_s, 0.05);
   // 500 Hz references: half the regeneration and the bytes of a hit (docs/service.md).
   EXPECT_DOUBLE_EQ(c.planner.output_dt_s, 0.002);
+  // Its planner settings file is named relative to it, and found beside it whatever the
+  // working directory.
+  EXPECT_EQ(std::filesystem::path(c.planner.settings_file),
+            (std::filesystem::path(WJ_CONFIG_DIR) / "planner_settings.yaml").lexically_normal());
+  EXPECT_TRUE(std::filesystem::exists(c.planner.settings_file));
+}
+
+TEST(ServerConfig, RelativeSettingsFilesAreBesideTheConfigAndAbsoluteOnesUnchanged) {
+  const auto dir = std::filesystem::temp_directory_path() / "wj_test_config_paths";
+  std::filesystem::create_directories(dir);
+  std::string text = replaceLine(ServerConfig{}.toYaml(),
+                                 "  settings_file:", "  settings_file: \"sub/planner.yaml\"");
+  text = replaceLine(text, "  sim_settings_file:", "  sim_settings_file: \"/abs/sim.yaml\"");
+  std::ofstream(dir / "server.yaml") << text;
+  const auto c = ServerConfig::fromYamlFile(dir / "server.yaml");
+  EXPECT_EQ(c.planner.settings_file, (dir / "sub/planner.yaml").string());
+  EXPECT_EQ(c.verification.sim_settings_file, "/abs/sim.yaml");
+  // A string stays as written (no file to be beside).
+  EXPECT_EQ(ServerConfig::fromYamlString(text, "<test>").planner.settings_file, "sub/planner.yaml");
 }
 
 TEST(ServerConfig, HotResponsesAreOptionalOffByDefaultAndBounded) {
