@@ -24,9 +24,12 @@ for task in forward_hw vertical forward platform; do
     --snapshots "out/${task}_snapshots.png" --gif "out/$task.gif" --html "out/$task.html" || rc=$?
   if [ "$rc" -eq 2 ]; then status=2; fi
 done
-echo "=== sim_jump backflip (actuators-57nm.yaml) ==="
+# Rolling backward at 0.95 m/s, as the robot client's backflip scenario: from standing the
+# planner finds no flip since the hind wheels' roll starts from their speed at t1 (docs/backflip.md).
+echo "=== sim_jump backflip (actuators-57nm.yaml, rolling back at 0.95 m/s) ==="
 rc=0
-build/release/bin/sim_jump --task backflip --actuators actuators-57nm.yaml --csv out/backflip.csv \
+build/release/bin/sim_jump --task backflip --actuators actuators-57nm.yaml --v0 -0.95 \
+  --csv out/backflip.csv \
   --plot out/backflip.png --snapshots out/backflip_snapshots.png --gif out/backflip.gif \
   --html out/backflip.html || rc=$?
 if [ "$rc" -eq 2 ]; then status=2; fi
