@@ -412,7 +412,7 @@ TEST(JumpModel, WallAndPlatformKeepTheirOwnClearanceMargins) {
 TEST(PlannerSettings, ServiceSettingsPlanTheForwardWallWithTheirMargin) {
   const PlannerSettings s = PlannerSettings::fromYaml(WJ_CONFIG_DIR "/planner_settings.yaml");
   EXPECT_DOUBLE_EQ(s.obstacle_margin_m, 0.05);
-  EXPECT_DOUBLE_EQ(s.platform_margin_m, 0.02);
+  EXPECT_DOUBLE_EQ(s.platform_margin_m, 0.03);
   const JumpPlanner planner = makePlanner(s);
   const Scenario sc = makePreset(planner, "forward");
   PlanOptions o;
