@@ -118,11 +118,13 @@ double robotLength(const model::RobotModel& robot) {
   return std::max(robot.baseBoxSize().x(), front - hind + 2.0 * robot.wheelRadius());
 }
 
-// Jump window of the recording: [start, touchdown + tail], or the whole run.
-std::pair<double, double> jumpWindow(const Recording& rec, double tail) {
+// Window of a jump of the recording: [start, touchdown + tail] within the frames; an unknown
+// (NaN) end is the run's.
+std::pair<double, double> jumpWindow(const Recording& rec, double start, double touchdown,
+                                     double tail) {
   const double t0 = rec.frames.front().t, tn = rec.frames.back().t;
-  const double a = std::isfinite(rec.jump_start_t) ? std::clamp(rec.jump_start_t, t0, tn) : t0;
-  const double b = std::isfinite(rec.touchdown_t) ? std::clamp(rec.touchdown_t + tail, a, tn) : tn;
+  const double a = std::isfinite(start) ? std::clamp(start, t0, tn) : t0;
+  const double b = std::isfinite(touchdown) ? std::clamp(touchdown + tail, a, tn) : tn;
   return {a, b};
 }
 
@@ -130,11 +132,7 @@ std::pair<double, double> jumpWindow(const Recording& rec, double tail) {
 // apex, and the spread of a jump in place.
 StripLayout planRow(const model::RobotModel& robot, const Recording& rec, const JumpSpan& jump,
                     const StripSettings& settings) {
-  const double t0 = rec.frames.front().t, tn = rec.frames.back().t;
-  const double a = std::isfinite(jump.start_t) ? std::clamp(jump.start_t, t0, tn) : t0;
-  const double b = std::isfinite(jump.touchdown_t)
-                       ? std::clamp(jump.touchdown_t + settings.landing_tail_s, a, tn)
-                       : tn;
+  const auto [a, b] = jumpWindow(rec, jump.start_t, jump.touchdown_t, settings.landing_tail_s);
   StripLayout layout;
   for (int k = 0; k < settings.snapshots; ++k) {
     const int i = rec.frameAt(a + (b - a) * k / (settings.snapshots - 1));
@@ -329,7 +327,7 @@ GifLayout planGif(const Recording& rec, const GifSettings& settings) {
     useFps(std::max(kMinFps, (settings.max_frames - 1) / (g.slowdown * (tn - t0))));
   if (count() > settings.max_frames) {
     const double span = (settings.max_frames - 1) / (g.fps * g.slowdown);
-    const auto [a, b] = jumpWindow(rec, 0.0);
+    const auto [a, b] = jumpWindow(rec, rec.jump_start_t, rec.touchdown_t, 0.0);
     const double centre = std::isfinite(rec.jump_start_t) ? 0.5 * (a + b) : 0.5 * (t0 + tn);
     g.t_begin = std::clamp(centre - 0.5 * span, t0, tn - span);
     g.t_end = g.t_begin + span;
