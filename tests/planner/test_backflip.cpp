@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "error_of.h"
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
@@ -60,12 +61,8 @@ TEST(Backflip, SettingsAreReadAndCheckedByName) {
   EXPECT_TRUE(
       PlannerSettings::fromYamlString("flip: {initial_guess: []}\n").flip_initial_guess.empty());
   const auto expectError = [](const std::string& yaml, const std::string& field) {
-    try {
-      (void)PlannerSettings::fromYamlString(yaml);
-      ADD_FAILURE() << "accepted: " << yaml;
-    } catch (const std::exception& e) {
-      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
-    }
+    EXPECT_THAT(test::errorOf([&] { return PlannerSettings::fromYamlString(yaml); }),
+                test::HasSubstr(field));
   };
   expectError("flip: {initial_guess: [1, 2, 3]}\n", "flip.initial_guess");
   expectError("flip: {initial_guess: 3}\n", "flip.initial_guess");
