@@ -20,7 +20,8 @@ namespace wj::sim::detail {
 class EulerStepper {
  public:
   /// True when `system` (its topology realized in `state`) has nothing the stepper leaves
-  /// out: no constraints, quaternions, z states or event triggers.
+  /// out: no constraints, quaternions, z states or event triggers. Prescribed motion is not
+  /// looked for: SimRobot builds none.
   static bool applies(const SimTK::MultibodySystem& system, const SimTK::State& state);
 
   /// Fixed step `max_step_s` (SemiExplicitEulerIntegrator's). `qdot_is_u`: every mobilizer's
