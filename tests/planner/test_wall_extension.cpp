@@ -1,5 +1,6 @@
 // postures.wall_extend_start_fraction: when the legs of a jump over a wall start extending to
-// the landing posture (docs/robust.md, "The nominal touchdown pitch").
+// the landing posture (docs/robust.md, "The nominal touchdown pitch"), and the robot client's
+// service settings that use it.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -90,6 +91,24 @@ TEST(WallExtension, SettingIsReadAndRangeChecked) {
           << e.what();
     }
   }
+}
+
+// The robot client's service settings (config/planner_settings.yaml): the forward preset's
+// plans meet the target's touchdown pitch (0.3 rad; with the extension from 55 % of the flight
+// the polish could not, and the plans landed 0.33-0.39 rad) and keep the 5 cm margin.
+TEST(WallExtension, ServiceSettingsLandTheForwardJumpAtTheTargetPitch) {
+  const PlannerSettings s = PlannerSettings::fromYaml(WJ_CONFIG_DIR "/planner_settings.yaml");
+  EXPECT_DOUBLE_EQ(s.wall_extend_start_fraction, 0.65);
+  const JumpPlanner planner(robot(), s);
+  const Scenario sc = makePreset(planner, "forward");
+  PlanOptions o;
+  o.seed = 3;
+  o.threads = 1;
+  const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+  ASSERT_TRUE(r.evaluation.feasible) << r.summary;
+  EXPECT_NEAR(r.evaluation.predicted.touchdown.state.pitch - sc.initial.pitch,
+              sc.task.target.pitch_change, 0.005);
+  EXPECT_GE(r.evaluation.predicted.min_obstacle_clearance, 0.05);
 }
 
 }  // namespace
