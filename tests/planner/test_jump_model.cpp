@@ -876,7 +876,7 @@ TEST(JumpModel, TakeoffChainIsExactAtTheTakeoffInstant) {
   // The one-step CoM-offset iteration converges to the exact posture as the samples get denser.
   // Chained from the converged take-off posture (from_takeoff), the take-off instant is exact
   // at any density; chained from t = 0 (from_start), it carries the chain's error, largest
-  // there (the legs extend fastest).
+  // there (the legs extend fastest). A backflip always chains from the take-off.
   const JumpPlanner planner = makePlanner();
   for (const std::string name : {"forward_hw", "backflip"}) {
     const Scenario sc = makePreset(planner, name);
@@ -887,6 +887,13 @@ TEST(JumpModel, TakeoffChainIsExactAtTheTakeoffInstant) {
     const TakeoffBlock fine = takeoffBlock(sc, u, ContactChain::FromStart, 960, 640);
     const TakeoffBlock start = takeoffBlock(sc, u, ContactChain::FromStart, 24, 16);
     const TakeoffBlock takeoff = takeoffBlock(sc, u, ContactChain::FromTakeoff, 24, 16);
+    if (name == "backflip") {
+      // A backflip chains from the take-off whatever the setting (docs/backflip.md, "Session
+      // 13": from the start its lift-off sample missed the posture its flight starts from).
+      EXPECT_EQ(start.margins, takeoff.margins);
+      EXPECT_EQ(start.energy, takeoff.energy);
+      continue;
+    }
     ASSERT_EQ(fine.margins.size(), start.margins.size()) << name;
     ASSERT_EQ(fine.margins.size(), takeoff.margins.size()) << name;
     double err_start = 0.0, err_takeoff = 0.0;

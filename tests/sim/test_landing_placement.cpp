@@ -191,6 +191,29 @@ TEST(LandingPlacement, WheelsBrakeAgainstAWheelieBeyondTheLimitOnly) {
   EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
 }
 
+// After a backflip the running (unwrapped) pitch is a turn more than the body's attitude: the
+// wheelie brake acts on the folded pitch, as after any other jump.
+TEST(LandingPlacement, TheWheelieBrakeSeesTheAttitudeAfterAFullTurn) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  ExecutorSettings s = placement(0.0);
+  s.landing_pitch_limit_rad = 0.4;
+  s.landing_pitch_kp = 40.0;
+  s.landing_pitch_kd = 4.0;
+  s.landing_pitch_max_nm = 8.0;
+  PlanExecutor ex(robot, plan, s, 9.81);
+  model::JointCommands c{};
+  ex.update(0.0, pitched(0.0), true, c);
+  // A full backward turn in flight, in steps the unwrapping follows.
+  for (int i = 1; i <= 64; ++i)
+    ex.update(0.21 + 0.004 * i, pitched(2.0 * M_PI * i / 64.0 + 0.1), false, c);
+  ex.update(0.49, pitching(2.0 * M_PI + 0.1, 0.5), true, c);  // upright: no brake
+  ASSERT_EQ(ex.phase(), JumpPhase::Landing);
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
+  ex.update(0.5, pitching(2.0 * M_PI + 0.45, 0.5), true, c);  // 0.05 beyond the limit
+  EXPECT_NEAR(wheelTau(c, Leg::LH), -(40.0 * 0.05 + 4.0 * 0.5), 1e-9);
+}
+
 TEST(LandingPlacement, SettingsOutOfRangeAreRejectedByName) {
   const model::RobotModel robot = loadRobot();
   const planner::JumpPlan plan = makePlan();
