@@ -159,6 +159,17 @@ model::SensorData pitching(double pitch, double rate) {
   return s;
 }
 
+// No placement; the wheels brake against a wheelie beyond 0.4 rad (40 Nm/rad, 4 Nm s/rad,
+// at most 8 Nm).
+ExecutorSettings wheelieBrake() {
+  ExecutorSettings s = placement(0.0);
+  s.landing_pitch_limit_rad = 0.4;
+  s.landing_pitch_kp = 40.0;
+  s.landing_pitch_kd = 4.0;
+  s.landing_pitch_max_nm = 8.0;
+  return s;
+}
+
 double wheelTau(const model::JointCommands& c, Leg leg) {
   return c[jointIndex(leg, JointKind::Wheel)].tau_ff;
 }
@@ -166,12 +177,7 @@ double wheelTau(const model::JointCommands& c, Leg leg) {
 TEST(LandingPlacement, WheelsBrakeAgainstAWheelieBeyondTheLimitOnly) {
   const model::RobotModel robot = loadRobot();
   const planner::JumpPlan plan = makePlan();
-  ExecutorSettings s = placement(0.0);
-  s.landing_pitch_limit_rad = 0.4;
-  s.landing_pitch_kp = 40.0;
-  s.landing_pitch_kd = 4.0;
-  s.landing_pitch_max_nm = 8.0;
-  PlanExecutor ex(robot, plan, s, 9.81);
+  PlanExecutor ex(robot, plan, wheelieBrake(), 9.81);
   model::JointCommands c = flyTo(ex, 0.48, kPlanPitch);
   ex.update(0.49, pitching(0.35, 1.0), true, c);  // touchdown below the limit: no brake
   ASSERT_EQ(ex.phase(), JumpPhase::Landing);
@@ -196,12 +202,7 @@ TEST(LandingPlacement, WheelsBrakeAgainstAWheelieBeyondTheLimitOnly) {
 TEST(LandingPlacement, TheWheelieBrakeSeesTheAttitudeAfterAFullTurn) {
   const model::RobotModel robot = loadRobot();
   const planner::JumpPlan plan = makePlan();
-  ExecutorSettings s = placement(0.0);
-  s.landing_pitch_limit_rad = 0.4;
-  s.landing_pitch_kp = 40.0;
-  s.landing_pitch_kd = 4.0;
-  s.landing_pitch_max_nm = 8.0;
-  PlanExecutor ex(robot, plan, s, 9.81);
+  PlanExecutor ex(robot, plan, wheelieBrake(), 9.81);
   model::JointCommands c{};
   ex.update(0.0, pitched(0.0), true, c);
   // A full backward turn in flight, in steps the unwrapping follows.
