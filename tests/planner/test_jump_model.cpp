@@ -14,6 +14,7 @@
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
+#include "test_robot.h"
 
 namespace wj::planner {
 namespace {
@@ -21,10 +22,7 @@ namespace {
 using model::JointKind;
 using model::Leg;
 
-const model::RobotModel& robot() {
-  static const model::RobotModel r = model::RobotModel::loadDefault();
-  return r;
-}
+using wj::test::robot;
 
 JumpPlanner makePlanner(PlannerSettings s = {}) {
   return JumpPlanner(robot(), s);

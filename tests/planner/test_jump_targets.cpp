@@ -9,14 +9,12 @@
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
+#include "test_robot.h"
 
 namespace wj::planner {
 namespace {
 
-const model::RobotModel& robot() {
-  static const model::RobotModel r = model::RobotModel::loadDefault();
-  return r;
-}
+using wj::test::robot;
 
 double margin(const Evaluation& ev, ConstraintClass c) {
   return ev.margins[static_cast<int>(c)].worst;

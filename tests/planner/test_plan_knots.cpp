@@ -10,14 +10,12 @@
 #include "planner/jump_planner.h"
 #include "planner/plan_knots.h"
 #include "planner/presets.h"
+#include "test_robot.h"
 
 namespace wj::planner {
 namespace {
 
-const model::RobotModel& robot() {
-  static const model::RobotModel r = model::RobotModel::loadDefault();
-  return r;
-}
+using wj::test::robot;
 
 struct Errors {
   double q = 0, qd = 0, tau = 0, com = 0, com_v = 0, pitch = 0;

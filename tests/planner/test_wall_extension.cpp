@@ -10,6 +10,7 @@
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
+#include "test_robot.h"
 
 namespace wj::planner {
 namespace {
@@ -17,10 +18,7 @@ namespace {
 using model::JointKind;
 using model::Leg;
 
-const model::RobotModel& robot() {
-  static const model::RobotModel r = model::RobotModel::loadDefault();
-  return r;
-}
+using wj::test::robot;
 
 // A jump the task's planner finds with the defaults (seed 1, no polish).
 Eigen::VectorXd plannedU(const Scenario& sc) {

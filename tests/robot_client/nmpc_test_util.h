@@ -9,13 +9,11 @@
 
 #include "nmpc/centroidal_model.h"
 #include "robot_model/robot_model.h"
+#include "test_robot.h"
 
 namespace wj::nmpc::test {
 
-inline model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 /// A generic state near standing: tilted, moving, turning, legs off the nominal posture.
 inline State randomState(const CentroidalModel& m, std::mt19937& rng) {

@@ -10,14 +10,12 @@
 
 #include "server/request_validation.h"
 #include "server_test_util.h"
+#include "test_robot.h"
 
 namespace wj::server {
 namespace {
 
-const model::RobotModel& robot() {
-  static const model::RobotModel r = model::RobotModel::loadDefault();
-  return r;
-}
+using wj::test::robot;
 
 // The message of the INVALID_ARGUMENT thrown for `request`, or "" if it is accepted.
 std::string rejection(const v1::PlanJumpRequest& request) {

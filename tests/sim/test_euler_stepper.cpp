@@ -10,16 +10,14 @@
 #include "sim/reference_plans.h"
 #include "sim/statics.h"
 #include "sim/verifier.h"
+#include "test_robot.h"
 
 namespace wj::sim {
 namespace {
 
 constexpr double kG = 9.81;
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 SimSettings simbodyIntegrator(SimSettings s = {}) {
   s.integrator.kind = IntegratorKind::SemiExplicitEulerSimbody;

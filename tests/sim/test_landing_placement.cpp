@@ -16,6 +16,7 @@
 
 #include "error_of.h"
 #include "sim/plan_executor.h"
+#include "test_robot.h"
 
 namespace wj::sim {
 namespace {
@@ -24,10 +25,7 @@ using model::jointIndex;
 using model::JointKind;
 using model::Leg;
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 // Take-off until t2 = 0.2 s, flight to t3 = 0.5 s with the apex at 0.35 s (vz > 0 before);
 // the planned pitch is 0.3 rad all along; every leg holds HFE 0.8 rad.

@@ -12,6 +12,7 @@
 
 #include "error_of.h"
 #include "sim/plan_executor.h"
+#include "test_robot.h"
 
 namespace wj::sim {
 namespace {
@@ -20,10 +21,7 @@ using model::jointIndex;
 using model::JointKind;
 using model::Leg;
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 // Constant references: every body pitch 0.5 rad at 1 rad/s, every joint torque `tau`, except
 // the front legs in [t1, t2) which carry `front_tau` (0: the front pair has lifted).

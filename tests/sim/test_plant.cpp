@@ -11,14 +11,12 @@
 #include "sim/reference_plans.h"
 #include "sim/sim_robot.h"
 #include "sim/statics.h"
+#include "test_robot.h"
 
 namespace wj::sim {
 namespace {
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 constexpr double kG = 9.81;
 

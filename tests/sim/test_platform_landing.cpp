@@ -8,14 +8,12 @@
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
 #include "sim/verifier.h"
+#include "test_robot.h"
 
 namespace wj::sim {
 namespace {
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 TEST(PlatformLanding, TaskScenarioIsAPlatformTerrainOrAWallObstacle) {
   const auto robot = loadRobot();

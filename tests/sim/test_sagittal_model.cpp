@@ -15,6 +15,7 @@
 #include "sim/statics.h"
 #include "sim/symmetry.h"
 #include "sim/verifier.h"
+#include "test_robot.h"
 
 namespace wj::sim {
 namespace {
@@ -25,9 +26,7 @@ std::filesystem::path modelsDir() {
   return WJ_MODELS_DIR;
 }
 
-model::RobotModel loadRobot() {
-  return model::RobotModel::load(modelsDir() / "wheeljump.urdf", modelsDir() / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 planner::JumpPlan verticalJump(const model::RobotModel& m, double v0) {
   VerticalJumpSpec spec;

@@ -10,14 +10,12 @@
 #include "sim/sim_robot.h"
 #include "sim/statics.h"
 #include "sim/verifier.h"
+#include "test_robot.h"
 
 namespace wj::sim {
 namespace {
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 constexpr double kG = 9.81;
 

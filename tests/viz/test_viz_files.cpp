@@ -8,6 +8,7 @@
 #include "error_of.h"
 #include "image_files.h"
 #include "synthetic_run.h"
+#include "test_robot.h"
 #include "viz/geometry.h"
 #include "viz/knee_figure.h"
 #include "viz/replay_page.h"
@@ -16,10 +17,7 @@
 namespace wj::viz {
 namespace {
 
-const model::RobotModel& robot() {
-  static const model::RobotModel m = model::RobotModel::loadDefault();
-  return m;
-}
+using wj::test::robot;
 
 std::filesystem::path outDir() {
   const auto dir = std::filesystem::temp_directory_path() / "wj_test_viz_files";

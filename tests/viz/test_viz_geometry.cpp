@@ -8,6 +8,7 @@
 
 #include "error_of.h"
 #include "synthetic_run.h"
+#include "test_robot.h"
 #include "viz/geometry.h"
 #include "viz/side_view.h"
 
@@ -17,10 +18,7 @@ namespace {
 using model::JointKind;
 using model::Leg;
 
-const model::RobotModel& robot() {
-  static const model::RobotModel m = model::RobotModel::loadDefault();
-  return m;
-}
+using wj::test::robot;
 
 // Wheel centre in the world from the leg's planar closed form (no calcLinkPoses): base pitched
 // nose-up by `pitch`, HFE angle a and KFE angle b swing the leg about +y.

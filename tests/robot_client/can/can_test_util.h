@@ -10,13 +10,11 @@
 #include "can/can_robot.h"
 #include "can/motor_emulator.h"
 #include "robot_model/robot_model.h"
+#include "test_robot.h"
 
 namespace wj::can::test {
 
-inline model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 /// An IMU that reports a fixed reading.
 class FixedImu final : public ImuSource {

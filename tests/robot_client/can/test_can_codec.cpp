@@ -12,6 +12,7 @@
 #include "can/can_settings.h"
 #include "can/mit_codec.h"
 #include "error_of.h"
+#include "test_robot.h"
 
 namespace wj::can {
 namespace {
@@ -273,10 +274,7 @@ std::string configText() {
   return s.str();
 }
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 std::string replaced(std::string text, const std::string& from, const std::string& to) {
   const auto pos = text.find(from);

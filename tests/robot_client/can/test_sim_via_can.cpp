@@ -12,6 +12,7 @@
 #include "can/sim_via_can.h"
 #include "sim/reference_plans.h"
 #include "sim/statics.h"
+#include "test_robot.h"
 
 namespace wj::can {
 namespace {
@@ -23,10 +24,7 @@ using model::Leg;
 
 constexpr double kG = 9.81;
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 // Stiff PD on the legs plus the statics feedforward, wheels on speed control.
 model::JointCommands holdPosture(const model::RobotModel& m, const sim::JointVector& q,

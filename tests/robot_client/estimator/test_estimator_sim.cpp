@@ -13,6 +13,7 @@
 #include "sim/reference_plans.h"
 #include "sim/sim_robot.h"
 #include "sim/statics.h"
+#include "test_robot.h"
 
 namespace wj::estimation {
 namespace {
@@ -25,10 +26,7 @@ constexpr double kG = 9.81;
 constexpr std::array<bool, 4> kAllContact = {true, true, true, true};
 constexpr std::array<bool, 4> kNoContact = {false, false, false, false};
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 sim::SimSettings noisySettings(sim::Terrain terrain, std::uint64_t seed) {
   sim::SimSettings s;

@@ -10,6 +10,7 @@
 
 #include "error_of.h"
 #include "estimator/state_estimator.h"
+#include "test_robot.h"
 
 // Counts heap allocations of the whole process by interposing glibc's malloc, to check that
 // update() does not allocate.
@@ -28,10 +29,7 @@ namespace {
 using model::JointKind;
 using model::Leg;
 
-model::RobotModel loadRobot() {
-  const std::filesystem::path dir = WJ_MODELS_DIR;
-  return model::RobotModel::load(dir / "wheeljump.urdf", dir / "actuators.yaml");
-}
+using wj::test::loadRobot;
 
 // A crouched posture: HFE forward, knee bent back, small abduction.
 model::JointMeasurements posture(double haa = 0.05) {
