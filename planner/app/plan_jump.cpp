@@ -42,9 +42,14 @@ int main(int argc, char** argv) {
   int threads = 2;
   std::optional<std::int64_t> max_evals;
   bool json = false, no_polish = false, log = false;
-  app.add_option("--task", task_name, "preset: forward | forward_hw | vertical | backflip");
-  app.add_option("--target", target_text, "custom target dx,z,pitch [m, m, rad] of the CoM");
-  app.add_option("--event", event_text, "what --target describes: apex | touchdown");
+  auto* task_opt =
+      app.add_option("--task", task_name, "preset: forward | forward_hw | vertical | backflip");
+  auto* target_opt =
+      app.add_option("--target", target_text, "custom target dx,z,pitch [m, m, rad] of the CoM");
+  app.add_option("--event", event_text, "what --target describes: apex | touchdown")
+      ->needs(target_opt);
+  // A preset carries its own target: a --target beside it would be ignored, so it is refused.
+  task_opt->excludes(target_opt);
   app.add_option("--mode", mode_text, "take-off: simultaneous | two-step (default per preset)");
   app.add_option("--v0", v0, "run-up speed [m/s]");
   app.add_option("--obstacle", obstacle_text, "box obstacle x0,x1,height [m]");
