@@ -605,7 +605,7 @@ json responseFieldBytes(const v1::PlanJumpResponse& r) {
   const auto& c = p.compact_knots();
   j["plan.compact_knots"] = c.ByteSizeLong();
   j["plan.compact_knots.t_s"] = packed(c.t_s_size(), 8);
-  j["plan.compact_knots.centroidal"] = c.centroidal().ByteSizeLong();
+  j["plan.compact_knots.centroidal"] = packed(c.centroidal_size(), 4);
   j["plan.compact_knots.positions_rad"] = c.positions_rad().ByteSizeLong();
   j["plan.compact_knots.velocities_rad_s"] = c.velocities_rad_s().ByteSizeLong();
   j["plan.compact_knots.torques_nm"] = c.torques_nm().ByteSizeLong();

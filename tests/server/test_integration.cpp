@@ -247,9 +247,7 @@ TEST(Integration, PlansTravelAsKnotsWhenAsked) {
   EXPECT_LT(tau_err, 0.25);
   EXPECT_LT(x_err, 1e-5);
 
-  // Compact knots: the same knots, each within half a quantization step of its column's range
-  // (a hundred times finer than the knots' own departure from the dense plan above), in well
-  // under half the bytes.
+  // Compact knots: the same knots bit for bit, in two thirds of the bytes or less.
   r.set_trajectory_format(v1::TRAJECTORY_FORMAT_COMPACT_KNOTS);
   const auto compact = plan(c, r);
   ASSERT_TRUE(compact.ok()) << compact.status.error_message();
@@ -258,29 +256,10 @@ TEST(Integration, PlansTravelAsKnotsWhenAsked) {
   EXPECT_EQ(cp.knots().t_s_size(), 0);
   EXPECT_EQ(cp.joints().num_samples(), 0u);
   EXPECT_EQ(cp.decision_vector_size(), 12);
-  EXPECT_LT(compact.response.ByteSizeLong() * 2, hit.response.ByteSizeLong());
+  EXPECT_LT(compact.response.ByteSizeLong() * 3, hit.response.ByteSizeLong() * 2);
   v1::TrajectoryKnots expanded;
   ASSERT_EQ(client::expandKnots(cp.compact_knots(), &expanded), "");
-  ASSERT_EQ(expanded.t_s_size(), n);
-  const auto within = [](const auto& want, const auto& got, int width) {
-    ASSERT_EQ(want.size(), got.size());
-    for (int col = 0; col < width; ++col) {
-      float lo = want[col], hi = want[col];
-      for (int i = col; i < want.size(); i += width) {
-        lo = std::min(lo, want[i]);
-        hi = std::max(hi, want[i]);
-      }
-      const double tolerance =
-          (static_cast<double>(hi) - static_cast<double>(lo)) / 65534.0 * 0.5001 + 1e-7;
-      for (int i = col; i < want.size(); i += width)
-        ASSERT_NEAR(want[i], got[i], tolerance) << "column " << col << ", index " << i;
-    }
-  };
-  for (int i = 0; i < n; ++i) EXPECT_EQ(expanded.t_s(i), k.t_s(i));
-  within(k.centroidal(), expanded.centroidal(), 6);
-  within(k.positions_rad(), expanded.positions_rad(), 16);
-  within(k.velocities_rad_s(), expanded.velocities_rad_s(), 16);
-  within(k.torques_nm(), expanded.torques_nm(), 16);
+  EXPECT_EQ(expanded.SerializeAsString(), k.SerializeAsString());
 }
 
 TEST(Integration, OutputSamplePeriodComesFromTheConfiguration) {

@@ -1,8 +1,7 @@
 #pragma once
 /// @file The contract's CompactKnots (TRAJECTORY_FORMAT_COMPACT_KNOTS): a plan's knots with each
-/// distinct joint column sent once and every column quantized to 16 bits over its range, and
-/// back. The server compacts, the robot expands and interpolates the TrajectoryKnots as before.
-/// Depends on the contract only.
+/// distinct joint column sent once, and back, bit for bit. The server compacts, the robot
+/// expands and interpolates the TrajectoryKnots as before. Depends on the contract only.
 
 #include <string>
 
@@ -11,17 +10,15 @@
 namespace wj::client {
 
 /// `knots` in the compact form: a joint column constant over the plan is sent as one number, a
-/// column equal to an earlier joint's (or to its negation: the right legs of a symmetric jump)
-/// refers to it, every other column is quantized with offset (min + max) / 2 and step
-/// (max - min) / 65534. Each value comes back within half a step (float32 rounding aside).
-/// `knots` must have finite values and consistent sizes (K times, K x 6 and K x 16 values;
-/// std::invalid_argument otherwise).
+/// column equal to an earlier joint's, or to its negation (the right legs of a symmetric jump),
+/// refers to it; columns are compared bit for bit, so expandKnots() gives `knots` back exactly.
+/// `knots` must have consistent sizes (K times, K x 6 and K x 16 values; std::invalid_argument
+/// otherwise).
 void compactKnots(const wheeljump::planner::v1::TrajectoryKnots& knots,
                   wheeljump::planner::v1::CompactKnots* out);
 
 /// The TrajectoryKnots that `compact` describes, into `out` (cleared first); "" or what is
-/// wrong with `compact` (sizes, sources out of range, non-finite offsets or steps), naming
-/// the field.
+/// wrong with `compact` (sizes, sources out of range, a non-finite constant), naming the field.
 std::string expandKnots(const wheeljump::planner::v1::CompactKnots& compact,
                         wheeljump::planner::v1::TrajectoryKnots* out);
 
