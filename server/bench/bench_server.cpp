@@ -45,6 +45,7 @@
 
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
+#include "planner_client/compact_knots.h"
 #include "planner_client/planner_client.h"
 #include "server/cached_solution.h"
 #include "server/config.h"
@@ -168,8 +169,17 @@ class Server {
   std::string target_;
 };
 
-// Trajectory format of every request (--format): knots, as the robot client asks, or dense.
-bool g_knots = true;
+// Trajectory format of every request (--format): compact knots, as the robot client asks, knots
+// or dense.
+v1::TrajectoryFormat g_format = v1::TRAJECTORY_FORMAT_COMPACT_KNOTS;
+
+// What a client does with a response besides parsing it: compact knots are expanded to the
+// TrajectoryKnots it interpolates (planner_client/compact_knots.h). False if they do not expand.
+bool useResponse(const v1::PlanJumpResponse& response) {
+  if (!response.plan().has_compact_knots()) return true;
+  thread_local v1::TrajectoryKnots knots;
+  return wj::client::expandKnots(response.plan().compact_knots(), &knots).empty();
+}
 
 v1::PlanJumpRequest standing(double v0, double height) {
   v1::PlanJumpRequest r;
@@ -185,7 +195,7 @@ v1::PlanJumpRequest standing(double v0, double height) {
   t->set_event(v1::TARGET_EVENT_APEX);
   t->set_takeoff_mode(v1::TAKEOFF_MODE_SIMULTANEOUS);
   r.set_request_id("bench");
-  r.set_trajectory_format(g_knots ? v1::TRAJECTORY_FORMAT_KNOTS : v1::TRAJECTORY_FORMAT_DENSE);
+  r.set_trajectory_format(g_format);
   return r;
 }
 
@@ -511,7 +521,7 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
         const grpc::Status s =
             stub.PlanJump(&ctx, first ? generator.centre() : generator.next(), &response);
         if (!s.ok() || first) return s.ok();
-        if (response.source() != v1::PLAN_SOURCE_CACHE_HIT) ++not_hits;
+        if (response.source() != v1::PLAN_SOURCE_CACHE_HIT || !useResponse(response)) ++not_hits;
         if (answered[static_cast<std::size_t>(i)] % 16 != 2) return true;  // every 16th: sized
         ++sized;
         const auto n = static_cast<long>(response.ByteSizeLong());
@@ -548,7 +558,8 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
         auto& response = responses[static_cast<std::size_t>(i)];
         stub.async()->PlanJump(ctx, &generators[static_cast<std::size_t>(i)].next(), &response,
                                [done, &response, &callback_not_hits](const grpc::Status& s) {
-                                 if (s.ok() && response.source() != v1::PLAN_SOURCE_CACHE_HIT)
+                                 if (s.ok() && (response.source() != v1::PLAN_SOURCE_CACHE_HIT ||
+                                                !useResponse(response)))
                                    ++callback_not_hits;
                                  done(s.ok());
                                });
@@ -564,6 +575,48 @@ double threadCpuUs() {
   timespec t{};
   ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
   return static_cast<double>(t.tv_sec) * 1e6 + static_cast<double>(t.tv_nsec) / 1e3;
+}
+
+// Where a response's bytes go: the serialized size of the fields that carry any (without the
+// tag and length of each field, so the parts add up to a little less than the total).
+json responseFieldBytes(const v1::PlanJumpResponse& r) {
+  const auto& p = r.plan();
+  const auto& k = p.knots();
+  const auto packed = [](int n, long each) { return static_cast<long>(n) * each; };
+  const auto sum = [](const auto& messages) {
+    long n = 0;
+    for (const auto& m : messages) n += static_cast<long>(m.ByteSizeLong());
+    return n;
+  };
+  json j;
+  j["total"] = r.ByteSizeLong();
+  j["plan"] = p.ByteSizeLong();
+  j["plan.phase_times"] = p.phase_times().ByteSizeLong();
+  j["plan.force_phases"] = sum(p.force_phases());
+  j["plan.decision_vector"] = packed(p.decision_vector_size(), 8);
+  j["plan.joints"] = p.joints().ByteSizeLong();
+  j["plan.centroidal_trajectory"] = sum(p.centroidal_trajectory());
+  j["plan.knots"] = k.ByteSizeLong();
+  j["plan.knots.t_s"] = packed(k.t_s_size(), 8);
+  j["plan.knots.centroidal"] = packed(k.centroidal_size(), 4);
+  j["plan.knots.positions_rad"] = packed(k.positions_rad_size(), 4);
+  j["plan.knots.velocities_rad_s"] = packed(k.velocities_rad_s_size(), 4);
+  j["plan.knots.torques_nm"] = packed(k.torques_nm_size(), 4);
+  const auto& c = p.compact_knots();
+  j["plan.compact_knots"] = c.ByteSizeLong();
+  j["plan.compact_knots.t_s"] = packed(c.t_s_size(), 8);
+  j["plan.compact_knots.centroidal"] = packed(c.centroidal_size(), 4);
+  j["plan.compact_knots.positions_rad"] = c.positions_rad().ByteSizeLong();
+  j["plan.compact_knots.velocities_rad_s"] = c.velocities_rad_s().ByteSizeLong();
+  j["plan.compact_knots.torques_nm"] = c.torques_nm().ByteSizeLong();
+  j["predicted"] = r.predicted().ByteSizeLong();
+  j["feasibility"] = r.feasibility().ByteSizeLong();
+  j["feasibility.margins"] = sum(r.feasibility().margins());
+  j["feasibility.summary"] = r.feasibility().summary().size();
+  j["verification"] = r.verification().ByteSizeLong();
+  j["stats"] = r.stats().ByteSizeLong();
+  j["request_id"] = r.request_id().size();
+  return j;
 }
 
 // The stages of one cache hit, timed one by one on this thread in thread CPU time (median over
@@ -603,9 +656,8 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
     time("model", [&] { model.emplace(robot, settings, r.task, r.initial); });
     time("evaluate", [&] { model->evaluate(u, a.evaluation); });
     time("build_plan", [&] {
-      a.plan = r.trajectory == wj::server::TrajectoryFormat::Knots
-                   ? model->buildKnots(u, &a.evaluation)
-                   : model->buildPlan(u, &a.evaluation);
+      a.plan = wj::server::asKnots(r.trajectory) ? model->buildKnots(u, &a.evaluation)
+                                                 : model->buildPlan(u, &a.evaluation);
     });
     time("describe", [&] {
       wj::server::describeEvaluation(a.evaluation, settings.polish_backoff, a.binding, a.summary);
@@ -616,12 +668,13 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
     arena_options.max_block_size = 64 * 1024;
     std::optional<google::protobuf::Arena> arena(std::in_place, arena_options);
     auto* response = google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(&*arena);
-    time("to_proto", [&] { wj::server::toProto(a, robot, r.request_id, response); });
+    time("to_proto", [&] { wj::server::toProto(a, robot, r.request_id, r.trajectory, response); });
     std::string wire;
     time("serialize", [&] { response->SerializeToString(&wire); });
     time("free_response", [&] { arena.reset(); });
     time("free_plan", [&] { a = wj::server::PlanAnswer{}; });
     time("client_parse", [&] { parsed.ParseFromString(wire); });
+    time("client_expand", [&] { (void)useResponse(parsed); });
     bytes = static_cast<long>(wire.size());
     // A hot hit's own work in the service, the way of session 11 (stamp the entry by encoding
     // it, copy the ready message onto the call's arena, set the caller's fields, serialize
@@ -658,7 +711,8 @@ json benchHitBreakdown(const std::filesystem::path& dir, int iterations) {
   j["iterations"] = iterations;
   j["response_bytes"] = bytes;
   j["samples"] = parsed.plan().joints().num_samples();
-  j["knots"] = parsed.plan().knots().t_s_size();
+  j["knots"] = std::max(parsed.plan().knots().t_s_size(), parsed.plan().compact_knots().t_s_size());
+  j["response_field_bytes"] = responseFieldBytes(parsed);
   j["sample_period_s"] = parsed.plan().joints().sample_period_s();
   return j;
 }
@@ -919,9 +973,11 @@ int main(int argc, char** argv) {
       "!--no-hot-tier", g_both_hit_paths,
       "with --hot-responses-mb 0, do not also measure the hot tier (64 MB) in the same run "
       "(cache_hits_hot_tier)");
-  std::string format = "knots";
-  app.add_option("--format", format, "trajectory format of the requests: knots | dense")
-      ->check(CLI::IsMember({"knots", "dense"}))
+  std::string format = "compact_knots";
+  app.add_option("--format", format,
+                 "trajectory format of the requests: compact_knots (the robot client's) | knots | "
+                 "dense")
+      ->check(CLI::IsMember({"compact_knots", "knots", "dense"}))
       ->capture_default_str();
   int breakdown_iterations = 300;
   app.add_option("--breakdown-iterations", breakdown_iterations,
@@ -938,7 +994,9 @@ int main(int argc, char** argv) {
   app.add_option("--redis-ops", redis_ops, "lookups per figure of the redis part")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
-  g_knots = format == "knots";
+  g_format = format == "dense"   ? v1::TRAJECTORY_FORMAT_DENSE
+             : format == "knots" ? v1::TRAJECTORY_FORMAT_KNOTS
+                                 : v1::TRAJECTORY_FORMAT_COMPACT_KNOTS;
   ::signal(SIGPIPE, SIG_IGN);
   // The clients' side keeps its freed memory as planner_server does (see its main): without
   // it, parsing each 0.2-0.3 MB response faults its buffers in again.

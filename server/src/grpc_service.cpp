@@ -79,6 +79,7 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
       return;
     }
     const std::string request_id = r.request_id;
+    const TrajectoryFormat format = r.trajectory;
     const auto& robot = core.robot();
     HotSlot hot;
     if (service_.hot_.enabled()) {
@@ -88,7 +89,7 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
     auto* response = google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(&arena_);
     call_ = std::make_shared<PlanCall>(
         toCoreDeadline(context->deadline(), service_.config_.deadlines),
-        [this, response, response_bytes, request_id, &robot,
+        [this, response, response_bytes, request_id, format, &robot,
          hot = std::move(hot)](PlanOutcome&& o) {
           // On a core worker thread: convert, serialize and finish there.
           if (o.error) {
@@ -96,7 +97,7 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
             Finish(toGrpcStatus(*o.error));
             return;
           }
-          toProto(o.answer, robot, request_id, response);
+          toProto(o.answer, robot, request_id, format, response);
           bool own_buffer = false;
           const grpc::Status serialized =
               grpc::SerializationTraits<v1::PlanJumpResponse>::Serialize(*response, response_bytes,
@@ -147,7 +148,8 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
     HotSlot slot;
     const CacheKey key = core.keyOf(r);
     if (!core.findHit(r, key, &slot.generation)) return slot;
-    slot.key = key.bytes() + (r.trajectory == TrajectoryFormat::Knots ? 'K' : 'D');
+    constexpr char kFormatTag[] = {'D', 'K', 'C'};  // per TrajectoryFormat
+    slot.key = key.bytes() + kFormatTag[static_cast<int>(r.trajectory)];
     const auto ready = service_.hot_.find(slot.key, slot.generation);
     if (!ready) return slot;
     const double ms = std::chrono::duration<double, std::milli>(Clock::now() - received).count();

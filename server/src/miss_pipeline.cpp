@@ -305,7 +305,7 @@ MissResult MissPipeline::run(const MissInputs& in) {
     answer.verification.failure_reasons.push_back(notRunReason(request));
   }
   const auto& cand = result.candidates[chosen];
-  if (request.trajectory == TrajectoryFormat::Knots && answer.plan.numSamples() > 0) {
+  if (asKnots(request.trajectory) && answer.plan.numSamples() > 0) {
     // The verifier ran the dense references; the answer carries the same plan as knots.
     const planner::JumpModel model(planner_.robot(), planner_.settings(), request.task,
                                    request.initial);

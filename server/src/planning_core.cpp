@@ -462,8 +462,8 @@ PlanAnswer PlanningCore::answerFromSolution(const CachedSolution& s, const PlanR
   model.evaluate(u, a.evaluation);
   if (!a.evaluation.valid)
     throw std::runtime_error("the cached solution has no valid trajectory at this state");
-  a.plan = request.trajectory == TrajectoryFormat::Knots ? model.buildKnots(u, &a.evaluation)
-                                                         : model.buildPlan(u, &a.evaluation);
+  a.plan = asKnots(request.trajectory) ? model.buildKnots(u, &a.evaluation)
+                                       : model.buildPlan(u, &a.evaluation);
   describeEvaluation(a.evaluation, planner_.settings().polish_backoff, a.binding, a.summary);
   a.verification = summaryOf(s.verification);
   a.source = source;

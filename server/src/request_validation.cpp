@@ -227,10 +227,13 @@ PlanRequest toPlanRequest(const v1::PlanJumpRequest& request, const model::Robot
     case v1::TRAJECTORY_FORMAT_KNOTS:
       r.trajectory = TrajectoryFormat::Knots;
       break;
+    case v1::TRAJECTORY_FORMAT_COMPACT_KNOTS:
+      r.trajectory = TrajectoryFormat::CompactKnots;
+      break;
     default:
       invalid(
           "trajectory_format must be TRAJECTORY_FORMAT_UNSPECIFIED (0), TRAJECTORY_FORMAT_DENSE "
-          "(1) or TRAJECTORY_FORMAT_KNOTS (2), got " +
+          "(1), TRAJECTORY_FORMAT_KNOTS (2) or TRAJECTORY_FORMAT_COMPACT_KNOTS (3), got " +
           std::to_string(static_cast<int>(request.trajectory_format())));
   }
   return r;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "planner_client/compact_knots.h"
+
 namespace wj::server {
 
 namespace {
@@ -80,7 +82,8 @@ void toProto(const planner::PlanKnots& k, v1::TrajectoryKnots* out) {
       c->AddAlreadyReserved(static_cast<float>(v));
 }
 
-void toProto(const planner::JumpPlan& plan, const model::RobotModel& robot, v1::Plan* out) {
+void toProto(const planner::JumpPlan& plan, const model::RobotModel& robot, TrajectoryFormat format,
+             v1::Plan* out) {
   auto* times = out->mutable_phase_times();
   times->set_t1_s(plan.t1);
   times->set_t2_s(plan.t2);
@@ -98,6 +101,10 @@ void toProto(const planner::JumpPlan& plan, const model::RobotModel& robot, v1::
                                          plan.decision.data() + plan.decision.size());
   if (plan.knots.size() > 0) {
     toProto(plan.knots, out->mutable_knots());
+    if (format == TrajectoryFormat::CompactKnots) {
+      client::compactKnots(out->knots(), out->mutable_compact_knots());
+      out->clear_knots();
+    }
     return;
   }
   const int n = plan.numSamples();
@@ -150,9 +157,9 @@ v1::PlanSource toProto(PlanSource source) {
 }
 
 void toProto(const PlanAnswer& a, const model::RobotModel& robot, const std::string& request_id,
-             v1::PlanJumpResponse* out) {
+             TrajectoryFormat format, v1::PlanJumpResponse* out) {
   if (a.plan.numSamples() > 0 || a.plan.knots.size() > 0)
-    toProto(a.plan, robot, out->mutable_plan());
+    toProto(a.plan, robot, format, out->mutable_plan());
   toProto(a.evaluation.predicted, out->mutable_predicted());
   auto* f = out->mutable_feasibility();
   f->set_feasible(a.evaluation.feasible);

@@ -32,10 +32,11 @@ std::string fnv1aHex(const std::string& bytes) {
 }
 
 /// The response's bytes (deterministic serialization) with the wall-clock fields zeroed.
-std::string answerDigest(const PlanOutcome& o, const model::RobotModel& robot) {
+std::string answerDigest(const PlanOutcome& o, const model::RobotModel& robot,
+                         TrajectoryFormat format) {
   if (o.error) return "error:" + std::to_string(static_cast<int>(o.error->code()));
   v1::PlanJumpResponse r;
-  toProto(o.answer, robot, "digest", &r);
+  toProto(o.answer, robot, "digest", format, &r);
   auto* s = r.mutable_stats();
   s->set_de_ms(0.0);
   s->set_polish_ms(0.0);
@@ -88,12 +89,12 @@ TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
               << static_cast<int>(miss.answer.verification.status) << " ("
               << miss.answer.verification.candidates_verified << " verified, rank "
               << miss.answer.verification.returned_candidate_rank << ")\n";
-    now[name + "/miss"] = answerDigest(miss, core.robot());
+    now[name + "/miss"] = answerDigest(miss, core.robot(), r.trajectory);
     const PlanOutcome hit = ask(core, r);
     EXPECT_EQ(hit.answer.source, PlanSource::CacheHit) << name;
-    now[name + "/hit"] = answerDigest(hit, core.robot());
+    now[name + "/hit"] = answerDigest(hit, core.robot(), r.trajectory);
     r.trajectory = TrajectoryFormat::Knots;
-    now[name + "/hit_knots"] = answerDigest(ask(core, r), core.robot());
+    now[name + "/hit_knots"] = answerDigest(ask(core, r), core.robot(), r.trajectory);
   }
   if (wj::test::updateRequested("WJ_UPDATE_ANSWER_DIGESTS")) {
     wj::test::writeGoldenDigests(

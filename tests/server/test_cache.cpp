@@ -323,9 +323,13 @@ TEST(SolutionStore, KillNineDuringWritesLosesNoCommittedRow) {
       }
     }
     ::close(fds[1]);
+    // The first commit, then a random instant among the later ones: on a loaded machine the
+    // child may not have committed anything yet 50 ms after the fork.
+    std::int32_t i = 0;
+    ASSERT_EQ(::read(fds[0], &i, sizeof i), static_cast<ssize_t>(sizeof i));
+    committed.insert(i);
     std::this_thread::sleep_for(std::chrono::milliseconds(50 + rng() % 200));
     ::kill(pid, SIGKILL);
-    std::int32_t i = 0;
     while (::read(fds[0], &i, sizeof i) == sizeof i) committed.insert(i);
     ::close(fds[0]);
     int status = 0;

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "planner/plan_knots.h"
+#include "planner_client/compact_knots.h"
 #include "planner_client/planner_client.h"
 #include "server/plan_verifier.h"
 #include "server/solution_store.h"
@@ -245,6 +246,20 @@ TEST(Integration, PlansTravelAsKnotsWhenAsked) {
   EXPECT_LT(q_err, 1e-3);
   EXPECT_LT(tau_err, 0.25);
   EXPECT_LT(x_err, 1e-5);
+
+  // Compact knots: the same knots bit for bit, in two thirds of the bytes or less.
+  r.set_trajectory_format(v1::TRAJECTORY_FORMAT_COMPACT_KNOTS);
+  const auto compact = plan(c, r);
+  ASSERT_TRUE(compact.ok()) << compact.status.error_message();
+  EXPECT_EQ(compact.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
+  const v1::Plan& cp = compact.response.plan();
+  EXPECT_EQ(cp.knots().t_s_size(), 0);
+  EXPECT_EQ(cp.joints().num_samples(), 0u);
+  EXPECT_EQ(cp.decision_vector_size(), 12);
+  EXPECT_LT(compact.response.ByteSizeLong() * 3, hit.response.ByteSizeLong() * 2);
+  v1::TrajectoryKnots expanded;
+  ASSERT_EQ(client::expandKnots(cp.compact_knots(), &expanded), "");
+  EXPECT_EQ(expanded.SerializeAsString(), k.SerializeAsString());
 }
 
 TEST(Integration, OutputSamplePeriodComesFromTheConfiguration) {

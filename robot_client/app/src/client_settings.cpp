@@ -292,11 +292,18 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     s.planner.retries = static_cast<int>(std::min<std::uint64_t>(m.unsignedInt("retries"), 1000));
     s.planner.skip_verification = m.flag("skip_verification");
     const std::string format = m.text("trajectory_format");
-    if (format != "knots" && format != "dense")
+    using Format = PlannerConnection::Format;
+    if (format == "compact_knots")
+      s.planner.format = Format::CompactKnots;
+    else if (format == "knots")
+      s.planner.format = Format::Knots;
+    else if (format == "dense")
+      s.planner.format = Format::Dense;
+    else
       throw std::invalid_argument("robot client settings " + origin +
-                                  ": planner.trajectory_format must be 'knots' or 'dense', got '" +
+                                  ": planner.trajectory_format must be 'compact_knots', 'knots' "
+                                  "or 'dense', got '" +
                                   format + "'");
-    s.planner.knots = format == "knots";
     s.planner.round_robin = m.flag("round_robin");
     StrictYamlMap tls = m.map("tls");
     s.planner.tls = tls.flag("enabled");

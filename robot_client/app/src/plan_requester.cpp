@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "planner/plan_knots.h"
+#include "planner_client/compact_knots.h"
 #include "planner_client/planner_client.h"
 #include "wheeljump/planner/v1/jump_planner.pb.h"
 
@@ -58,7 +59,10 @@ v1::PlanJumpRequest makeRequest(const PlanRequestSnapshot& s, const PlannerConne
   b->set_max_evaluations(c.max_evaluations);
   b->set_seed(s.seed != 0 ? s.seed : c.seed);
   b->set_skip_verification(c.skip_verification);
-  r.set_trajectory_format(c.knots ? v1::TRAJECTORY_FORMAT_KNOTS : v1::TRAJECTORY_FORMAT_DENSE);
+  using Format = PlannerConnection::Format;
+  r.set_trajectory_format(c.format == Format::CompactKnots ? v1::TRAJECTORY_FORMAT_COMPACT_KNOTS
+                          : c.format == Format::Knots      ? v1::TRAJECTORY_FORMAT_KNOTS
+                                                           : v1::TRAJECTORY_FORMAT_DENSE);
   std::ostringstream id;
   id << "jump-" << std::lround(s.t * 1000.0);
   r.set_request_id(id.str());
@@ -137,10 +141,10 @@ void convertHeader(const v1::Plan& p, planner::JumpPlan& plan) {
   }
 }
 
-// A plan sent as knots, densified at the executor's 1 kHz.
-std::string convertKnots(const v1::Plan& p, planner::JumpPlan& plan) {
+// A plan sent as knots (`k`: the plan's own, or its compact knots expanded), densified at the
+// executor's 1 kHz.
+std::string convertKnots(const v1::Plan& p, const v1::TrajectoryKnots& k, planner::JumpPlan& plan) {
   constexpr double kDenseDt = 0.001;
-  const v1::TrajectoryKnots& k = p.knots();
   const int n = k.t_s_size();
   const std::size_t values = static_cast<std::size_t>(n) * model::kNumJoints;
   if (static_cast<std::size_t>(k.positions_rad_size()) != values ||
@@ -205,8 +209,14 @@ std::string convertDense(const v1::Plan& p, planner::JumpPlan& plan) {
 
 std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner::JumpPlan& plan) {
   const v1::Plan& p = response.plan();
-  const std::string problem =
-      p.knots().t_s_size() > 0 ? convertKnots(p, plan) : convertDense(p, plan);
+  std::string problem;
+  if (p.compact_knots().t_s_size() > 0) {
+    v1::TrajectoryKnots knots;
+    problem = client::expandKnots(p.compact_knots(), &knots);
+    if (problem.empty()) problem = convertKnots(p, knots, plan);
+  } else {
+    problem = p.knots().t_s_size() > 0 ? convertKnots(p, p.knots(), plan) : convertDense(p, plan);
+  }
   if (!problem.empty()) return problem;
   const int n = plan.numSamples();
   plan.initial = plan.centroidal.front();

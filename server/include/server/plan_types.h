@@ -26,9 +26,15 @@ enum class VerificationStatus : std::uint8_t { NotRun = 0, Passed = 1, Failed = 
 /// A validated PlanJump request.
 /// How the answer's trajectory travels (the contract's TrajectoryFormat).
 enum class TrajectoryFormat {
-  Dense,  ///< uniform samples (planner settings' output_dt_s)
-  Knots,  ///< knots of piecewise cubics (JumpModel::buildKnots)
+  Dense,         ///< uniform samples (planner settings' output_dt_s)
+  Knots,         ///< knots of piecewise cubics (JumpModel::buildKnots)
+  CompactKnots,  ///< the same knots, compact on the wire (planner_client/compact_knots.h)
 };
+
+/// Whether the answer's plan is built as knots (JumpModel::buildKnots), in either form.
+inline bool asKnots(TrajectoryFormat f) {
+  return f != TrajectoryFormat::Dense;
+}
 
 struct PlanRequest {
   planner::JumpTask task;

@@ -12,9 +12,11 @@ namespace wj::server {
 
 namespace v1 = wheeljump::planner::v1;
 
-/// The response of an answer (the dense plan, what it predicts, feasibility, verification).
+/// The response of an answer (the plan, what it predicts, feasibility, verification). The plan
+/// goes out as it was built (dense samples, or knots), its knots in the compact form when
+/// `format` is CompactKnots.
 void toProto(const PlanAnswer& answer, const model::RobotModel& robot,
-             const std::string& request_id, v1::PlanJumpResponse* out);
+             const std::string& request_id, TrajectoryFormat format, v1::PlanJumpResponse* out);
 void toProto(const StatsSnapshot& stats, v1::GetStatsResponse* out);
 void toProto(const WarmProgress& progress, v1::WarmCacheProgress* out);
 v1::PlanSource toProto(PlanSource source);

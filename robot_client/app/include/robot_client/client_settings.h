@@ -58,10 +58,12 @@ struct PlannerConnection {
   /// most this many times and only while the decision point is ahead (docs/robust.md).
   int retries = 0;
   bool skip_verification = false;  ///< ask for the planner's plan without verification
-  /// Ask for the trajectory as knots (TRAJECTORY_FORMAT_KNOTS, about a fifth of the bytes),
-  /// turned into 1 kHz references here; false: dense samples (YAML `trajectory_format`:
-  /// knots | dense).
-  bool knots = true;
+  /// How the trajectory travels (YAML `trajectory_format`): compact_knots
+  /// (TRAJECTORY_FORMAT_COMPACT_KNOTS: knots with each distinct joint column once, 16-bit,
+  /// about a third of the knots' bytes), knots (TRAJECTORY_FORMAT_KNOTS, float32, about a
+  /// fifth of the dense bytes) or dense; knots of either kind are made 1 kHz references here.
+  enum class Format { Dense, Knots, CompactKnots };
+  Format format = Format::CompactKnots;
   /// Spread calls over every address the target resolves to (several service replicas
   /// behind a headless Service, docs/scaling.md) instead of sticking to the first.
   bool round_robin = false;
