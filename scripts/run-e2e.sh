@@ -5,7 +5,7 @@
 # measurement through emulated MIT-mode CAN frames), the vertical scenario (crouched, as high as
 # the planner reaches), the platform scenario (roll up to 3 m/s, jump onto a 0.25 m platform,
 # land on its top) and the course (two 0.25 m walls 10 m apart, jumped one after the other
-# without stopping, then a stop) and the backflip (rolling backward at 0.95 m/s, a full backward
+# without stopping, then a stop) and the backflip (rolling backward at 1 m/s, a full backward
 # turn; its robot has the paper's 57 Nm knee, actuators-57nm.yaml, so a second service runs for
 # it, docs/backflip.md). Summaries on
 # stdout, telemetry and figures in out/. Usage: scripts/run-e2e.sh [build dir] [seed]

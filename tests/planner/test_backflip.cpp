@@ -97,6 +97,24 @@ TEST(Backflip, PlannedOnThe57NmKnee) {
   EXPECT_NEAR(r.plan.centroidal.back().pitch, 2.0 * M_PI, 0.25);
 }
 
+// A warm start does not replace the flip's guess (the service warm-starts a miss from its
+// cached neighbours, for a flip often infeasible answers): from a poor warm start (the search
+// box's lower corner) seed 1 still plans a flip, as it does cold from the guess (until session
+// 14 a warm start took the guess's place).
+TEST(Backflip, AWarmStartKeepsTheFlipGuess) {
+  const JumpPlanner planner(robot57(), PlannerSettings{});
+  Scenario sc = makePreset(planner, "backflip");
+  sc.initial.v0 = -1.0;
+  const JumpModel m(planner.robot(), planner.settings(), sc.task, sc.initial);
+  PlanOptions o;
+  o.seed = 1;
+  o.threads = 2;
+  o.warm_start = m.lowerBounds();
+  const PlannerResult r = planner.plan(sc.task, sc.initial, o);
+  ASSERT_TRUE(r.evaluation.feasible) << r.summary;
+  EXPECT_NEAR(r.evaluation.predicted.touchdown.state.pitch, 2.0 * M_PI, 0.25);
+}
+
 // At t1 the lifted front pair brakes to rest relative to the body with no ground force on it:
 // the whole robot's angular momentum about the CoM holds, so the body's I theta' takes the
 // pair's momentum relative to the body (docs/backflip.md, "Session 13"). Checked against the

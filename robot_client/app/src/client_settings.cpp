@@ -27,21 +27,17 @@ void inRange(double v, double lo, double hi, const std::string& field) {
 }
 
 // The fastest backward run-up [m/s]: the planner's lowest initial speed (InitialState::validate,
-// -1 m/s); the backflips planned rolling backward start at 0.5-1 m/s (docs/backflip.md).
-constexpr double kMaxBackwardRunUp = 1.0;
+// -1 m/s; a request measured past it is clamped to it, ControlLoop); the backflips planned
+// rolling backward start at 0.5-1 m/s (docs/backflip.md).
+constexpr double kMaxBackwardRunUp = -kPlannerLowestSpeedMS;
 
 void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.stand_s, 0.0, 60.0, p + "stand_s");
   // Negative: rolling backward into the jump (the backflip's run-up, docs/backflip.md); walls
   // stand ahead, so a backward run-up has none.
   inRange(s.run_up_speed_m_s, -kMaxBackwardRunUp, 5.0, p + "run_up_speed_m_s");
-  // The plan is requested at the measured speed, within speed_tolerance_m_s of the run-up's.
-  if (s.run_up_speed_m_s < 0.0)
-    require(s.run_up_speed_m_s - s.speed_tolerance_m_s >= -kMaxBackwardRunUp,
-            p + "run_up_speed_m_s - speed_tolerance_m_s",
-            ">= -" + std::to_string(kMaxBackwardRunUp).substr(0, 3) +
-                " m/s (the planner's lowest initial speed)",
-            s.run_up_speed_m_s - s.speed_tolerance_m_s);
+  // The plan is requested at the measured speed, within speed_tolerance_m_s of the run-up's,
+  // clamped to the planner's lowest (ControlLoop::postPlanRequest).
   if (s.run_up_speed_m_s < 0.0 && s.has_wall)
     throw std::invalid_argument("robot client settings: " + p +
                                 "run_up_speed_m_s < 0 (a backward run-up) needs wall.enabled "

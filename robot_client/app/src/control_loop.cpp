@@ -182,7 +182,10 @@ void ControlLoop::postPlanRequest() {
   r.t = t_;
   r.p_WB = s.p_WB;
   r.q_WB = s.q_WB;
-  r.v_WB = s.v_WB;
+  // The service refuses a speed faster backward than the planner's lowest: a run-up at -1 m/s
+  // (the backflip's) is measured up to speed_tolerance_m_s past it, and the plan then starts
+  // at most that much slower than the robot rolls.
+  r.v_WB = requestVelocity(s.v_WB, s.q_WB);
   r.omega_B = s.q_WB.conjugate() * s.omega_W;
   for (int j = 0; j < model::kNumJoints; ++j) {
     r.q[j] = sensors_.joints[j].q;

@@ -121,6 +121,16 @@ std::string verificationName(v1::VerificationStatus s) {
 
 }  // namespace
 
+Eigen::Vector3d requestVelocity(const Eigen::Vector3d& v_WB, const Eigen::Quaterniond& q_WB) {
+  const Eigen::Vector3d x_B = q_WB.normalized() * Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d heading(x_B.x(), x_B.y(), 0.0);
+  if (!(heading.squaredNorm() > 1e-12)) return v_WB;
+  const Eigen::Vector3d h = heading.normalized();
+  const double along = v_WB.dot(h);
+  return along < kPlannerLowestSpeedMS ? Eigen::Vector3d(v_WB + (kPlannerLowestSpeedMS - along) * h)
+                                       : v_WB;
+}
+
 namespace {
 
 // The header of a plan: phase times and force polynomials.

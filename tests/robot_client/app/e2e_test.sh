@@ -7,7 +7,7 @@
 # apex). platform: run-up, jump onto the 0.25 m platform, land on its top, roll on, stop there.
 # course: two 0.25 m walls 10 m apart (at 14 and 24 m, as shipped), both jumped without a stop
 # between them, then a stop.
-# backflip: rolling backward (0.95 m/s) on the 57 Nm-knee robot (its own service): the planner's
+# backflip: rolling backward (1 m/s) on the 57 Nm-knee robot (its own service): the planner's
 # flip is asked for and answered on that robot; the robot either flips (a full turn, upright,
 # stopped) or, while the service finds no flip for its state or its Simbody check refuses it
 # (docs/backflip.md), does not jump, brakes and stands.

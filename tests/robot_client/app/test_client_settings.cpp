@@ -1,11 +1,13 @@
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
 
 #include "error_of.h"
 #include "robot_client/client_settings.h"
+#include "robot_client/plan_requester.h"
 
 namespace wj::robot_client {
 namespace {
@@ -153,8 +155,8 @@ TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
   const ScenarioSettings& flip = s.scenario("backflip");
   EXPECT_EQ(flip.mode, planner::TakeoffMode::TwoStep);
   EXPECT_NEAR(flip.target_pitch_change_rad, 2.0 * M_PI, 1e-3);
-  EXPECT_LT(flip.target_dx_m, 0.0);                // lands behind the start
-  EXPECT_DOUBLE_EQ(flip.run_up_speed_m_s, -0.95);  // rolling backward into it
+  EXPECT_LT(flip.target_dx_m, 0.0);               // lands behind the start
+  EXPECT_DOUBLE_EQ(flip.run_up_speed_m_s, -1.0);  // rolling backward into it
   EXPECT_FALSE(flip.has_wall);
   // The robot is chosen by configuration: the paper's 57 Nm knee (docs/backflip.md).
   EXPECT_EQ(flip.actuators_file, "actuators-57nm.yaml");
@@ -162,31 +164,44 @@ TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
 }
 
 TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
-  // The shipped backflip rolls backward at 0.95 m/s.
+  // The shipped backflip rolls backward at 1 m/s, the planner's lowest v0 (a request measured
+  // past it is clamped to it: ClientRequest.SpeedIsClampedToThePlannersLowest).
   const std::string anchor = "(issue 17, docs/backflip.md)\n    run_up_speed_m_s: ";
   const std::string back = shippedConfig();
-  ASSERT_NE(back.find(anchor + "-0.95"), std::string::npos);
-  EXPECT_DOUBLE_EQ(parseClientSettings(back, "x.yaml").scenario("backflip").run_up_speed_m_s,
-                   -0.95);
+  ASSERT_NE(back.find(anchor + "-1.0"), std::string::npos);
+  EXPECT_DOUBLE_EQ(parseClientSettings(back, "x.yaml").scenario("backflip").run_up_speed_m_s, -1.0);
   const auto message = [](const std::string& text) {
     return test::errorOf<std::invalid_argument>(
         [&] { return parseClientSettings(text, "x.yaml"); });
   };
-  const std::string too_fast = replace(back, anchor + "-0.95", anchor + "-1.2");
+  const std::string too_fast = replace(back, anchor + "-1.0", anchor + "-1.2");
   EXPECT_THAT(message(too_fast),
               test::HasSubstr("scenarios.backflip.run_up_speed_m_s must be in [-1, 5]"))
       << message(too_fast);
-  // The measured speed may be speed_tolerance_m_s (0.03) faster: below the planner's -1 m/s.
-  const std::string edge = replace(back, anchor + "-0.95", anchor + "-1.0");
-  EXPECT_THAT(message(edge),
-              test::HasSubstr("run_up_speed_m_s - speed_tolerance_m_s must be >= -1.0 m/s"))
-      << message(edge);
   // Walls stand ahead: a forward scenario's wall with a backward run-up is refused.
   const std::string into_wall =
       replace(shippedConfig(), "run_up_speed_m_s: 3.0", "run_up_speed_m_s: -0.5");
   ASSERT_NE(into_wall, shippedConfig());
   EXPECT_THAT(message(into_wall), test::HasSubstr("needs wall.enabled false"))
       << message(into_wall);
+}
+
+// A backward run-up measured past the planner's lowest speed is requested at it, along the
+// base's heading (yawed, pitched); slower speeds and the other components are sent as measured.
+TEST(ClientRequest, SpeedIsClampedToThePlannersLowest) {
+  const Eigen::Quaterniond q_WB(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitZ()) *
+                                Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitY()));
+  const Eigen::Vector3d h(std::cos(0.7), std::sin(0.7), 0.0);
+  const Eigen::Vector3d side(-std::sin(0.7), std::cos(0.7), 0.0);
+  const Eigen::Vector3d fast = -1.03 * h + 0.2 * side + Eigen::Vector3d(0.0, 0.0, 0.1);
+  const Eigen::Vector3d sent = requestVelocity(fast, q_WB);
+  EXPECT_NEAR(sent.dot(h), kPlannerLowestSpeedMS, 1e-12);
+  EXPECT_NEAR(sent.dot(side), 0.2, 1e-12);
+  EXPECT_NEAR(sent.z(), 0.1, 1e-12);
+  const Eigen::Vector3d slow = -0.97 * h + 0.2 * side;
+  EXPECT_TRUE(requestVelocity(slow, q_WB).isApprox(slow, 1e-15));
+  const Eigen::Vector3d forward = 3.0 * h;
+  EXPECT_TRUE(requestVelocity(forward, q_WB).isApprox(forward, 1e-15));
 }
 
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {

@@ -84,6 +84,11 @@ enum class AfterLanding : std::uint8_t {
 /// "stop", "roll_on".
 std::string_view toString(AfterLanding after);
 
+/// The planner's lowest initial speed along the heading (planner::InitialState::validate) [m/s]:
+/// a plan request's measured speed is clamped to it (ControlLoop), so that a backward run-up at
+/// -1 m/s, measured within its speed_tolerance_m_s past it, is still planned.
+inline constexpr double kPlannerLowestSpeedMS = -1.0;
+
 /// What a scenario does. Forward: roll up to `run_up_speed_m_s`, request a plan, jump over the
 /// wall at `wall_x_m` (world), land and stop. Course: several walls (`wall_x_m` a list), each
 /// jumped in turn, rolling on from one landing to the next run-up. Vertical: stand, request,

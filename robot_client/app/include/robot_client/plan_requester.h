@@ -54,6 +54,12 @@ struct PlanRequestSnapshot {
 };
 
 /// How the last request went (for the summary; read outside the loop).
+/// The base velocity a plan request carries: `v_WB` with its speed along the base's heading
+/// (x_B on the ground, as the service reads it) clamped to the planner's lowest,
+/// kPlannerLowestSpeedMS; a backward run-up at -1 m/s is measured up to its speed tolerance
+/// past it. Unchanged otherwise.
+Eigen::Vector3d requestVelocity(const Eigen::Vector3d& v_WB, const Eigen::Quaterniond& q_WB);
+
 struct PlanRequestInfo {
   double latency_ms = 0.0;   ///< post() to the answer, wall time
   std::string source;        ///< cache_hit, cache_miss, warm_start, coalesced
