@@ -468,20 +468,22 @@ BoundTerms calcBound(const RobotModel& robot, const Geometry& g, const BoundSett
     }
     t.energy_to_certify_j = lo;
   }
-  // The loosest term: the geometry alone if it leaves no room, else the one that supplies
-  // most of the energy the certificate cannot afford.
-  if (room <= 0.0) {
-    t.loosest_term = t.shape_rotation_rad > t.theta_liftoff_max_rad
-                         ? "shape_rotation (legs' zero-momentum turn in flight)"
-                         : "theta_liftoff_max (pitch reachable on the ground)";
-  } else if (t.bound_rad > t.need_rad) {
-    static const char* names[4] = {"work HAA", "work HFE", "work KFE", "work WHEEL"};
+  // Which terms alone reach the need, and the largest of the three (for the flight, the
+  // joint kind that supplies most of its energy).
+  if (t.theta_liftoff_max_rad >= t.need_rad) t.alone_exceed_need.push_back("theta_liftoff_max");
+  if (t.flight_rotation_rad >= t.need_rad) t.alone_exceed_need.push_back("flight_rotation");
+  if (t.shape_rotation_rad >= t.need_rad) t.alone_exceed_need.push_back("shape_rotation");
+  if (t.bound_rad < t.need_rad) {
+    t.loosest_term = "none: the bound certifies";
+  } else if (t.flight_rotation_rad >= std::max(t.theta_liftoff_max_rad, t.shape_rotation_rad)) {
+    static const char* names[4] = {"HAA", "HFE", "KFE", "WHEEL"};
     int worst = 0;
     for (int k = 1; k < 4; ++k)
       if (t.work_by_kind_j[k] > t.work_by_kind_j[worst]) worst = k;
-    t.loosest_term = names[worst];
+    t.loosest_term = std::string("flight_rotation (energy; most work: ") + names[worst] + ")";
   } else {
-    t.loosest_term = "none: the bound certifies";
+    t.loosest_term =
+        t.shape_rotation_rad > t.theta_liftoff_max_rad ? "shape_rotation" : "theta_liftoff_max";
   }
   return t;
 }

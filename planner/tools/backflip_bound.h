@@ -102,8 +102,9 @@ struct BoundTerms {
   double shape_rotation_rad = 0.0;   ///< zero-momentum rotation by the legs in flight
   double bound_rad = 0.0;            ///< theta_liftoff_max + flight + shape
   double need_rad = 0.0;
-  double energy_to_certify_j = 0.0;  ///< largest energy at which the bound stays <= need
-  std::string loosest_term;          ///< the term that alone exceeds its certifying share
+  double energy_to_certify_j = 0.0;            ///< largest energy at which the bound stays <= need
+  std::string loosest_term;                    ///< the largest of the three terms of the bound
+  std::vector<std::string> alone_exceed_need;  ///< the terms each of which alone reaches the need
 };
 
 /// Robot-independent pieces computed once (they do not depend on the knee's torque).

@@ -35,7 +35,8 @@ nlohmann::json toJson(const wj::bound::BoundTerms& t) {
           {"need_rad", t.need_rad},
           {"certified", t.bound_rad < t.need_rad},
           {"energy_to_certify_j", t.energy_to_certify_j},
-          {"loosest_term", t.loosest_term}};
+          {"loosest_term", t.loosest_term},
+          {"alone_exceed_need", t.alone_exceed_need}};
 }
 
 }  // namespace

@@ -115,6 +115,10 @@ TEST(BackflipBound, BoundGrowsWithKneeTorqueAndRunUp) {
     EXPECT_GT(rolling.bound_rad, standing.bound_rad);
     EXPECT_NEAR(standing.work_by_kind_j[2], 4.0 * knee * 2.2, 1e-9);  // one stroke of 2.2 rad
     EXPECT_NEAR(rolling.run_up_energy_j - standing.run_up_energy_j, 0.5 * 22.5, 1e-9);
+    EXPECT_NEAR(
+        standing.bound_rad,
+        standing.theta_liftoff_max_rad + standing.flight_rotation_rad + standing.shape_rotation_rad,
+        1e-12);
     last = standing.bound_rad;
   }
 }
