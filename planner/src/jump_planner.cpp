@@ -140,11 +140,18 @@ Eigen::MatrixXd JumpPlanner::warmCloud(const JumpModel& model, const Eigen::Matr
 
 Eigen::MatrixXd JumpPlanner::initialGuesses(const JumpTask& task,
                                             const PlanOptions& options) const {
-  if (options.warm_start.cols() > 0 || !task.isBackflip() || settings_.flip_initial_guess.empty())
-    return options.warm_start;
-  // A cold backflip: the flip's shape (settings.flip_initial_guess) starts the search.
-  return Eigen::Map<const Eigen::VectorXd>(settings_.flip_initial_guess.data(),
-                                           static_cast<Eigen::Index>(kNumDecision));
+  if (!task.isBackflip() || settings_.flip_initial_guess.empty()) return options.warm_start;
+  // A backflip: the flip's shape (settings.flip_initial_guess) starts the search, after the
+  // request's warm start if it brings one. The service warm-starts a miss from its cached
+  // neighbouring speeds, and for a flip those were often infeasible answers: without the guess
+  // the client's retries searched from them alone and found no flip (docs/backflip.md,
+  // "Session 14").
+  const Eigen::Index k = options.warm_start.cols();
+  Eigen::MatrixXd out(static_cast<Eigen::Index>(kNumDecision), k + 1);
+  if (k > 0) out.leftCols(k) = options.warm_start;
+  out.col(k) = Eigen::Map<const Eigen::VectorXd>(settings_.flip_initial_guess.data(),
+                                                 static_cast<Eigen::Index>(kNumDecision));
+  return out;
 }
 
 JumpPlanner::JumpPlanner(model::RobotModel robot, PlannerSettings settings)

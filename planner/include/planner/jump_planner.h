@@ -105,8 +105,8 @@ class JumpPlanner {
   /// The warm start handed to the DE: the given points and warm_start_cloud perturbations.
   Eigen::MatrixXd warmCloud(const JumpModel& model, const Eigen::MatrixXd& warm,
                             std::uint64_t seed) const;
-  /// The points the first population starts from: the request's warm start, or for a cold
-  /// backflip the settings' flip_initial_guess (none if empty).
+  /// The points the first population starts from: the request's warm start and, for a
+  /// backflip, the settings' flip_initial_guess after it (none if empty).
   Eigen::MatrixXd initialGuesses(const JumpTask& task, const PlanOptions& options) const;
 
   model::RobotModel robot_;

@@ -147,10 +147,12 @@ struct PlannerSettings {
   std::array<double, 2> flip_takeoff_vz_m_s = {1.5, 3.5};
   /// A backflip's shape as a search vector u (JumpModel's variable order, kNumDecision
   /// entries), entered into the DE's first population with the warm-start cloud when the
-  /// request brings no warm start of its own; empty = none. The default: 0.16 s on four wheels,
-  /// 0.46 s on the hind wheels to 2.6 rad nose-up, lift-off at 11.5 rad/s and 2 m/s upward.
-  std::vector<double> flip_initial_guess = {0.0,  0.02, 0.15, 0.05, 0.2, 2.6,
-                                            -1.3, 2.0,  11.5, 0.16, 0.46};
+  /// request brings no warm start of its own; empty = none. The default is the flip Simbody
+  /// verified (57 Nm, rolling back at 1 m/s, seed 2; docs/backflip.md, "Session 13"): 0.136 s
+  /// on four wheels, 0.464 s on the hind wheels to 2.59 rad nose-up, lift-off at 12.5 rad/s,
+  /// 1.58 m/s upward and 0.18 m/s faster forward than the start.
+  std::vector<double> flip_initial_guess = {0.003, 0.018, 0.145,  0.400, 0.257, 2.589,
+                                            0.178, 1.581, 12.531, 0.136, 0.464};
 
   // --- cost (paper Eq. 10): sum over violated classes W_n (10^(n+3) + 10^n sigma_n), plus the
   // target error and the energy.
