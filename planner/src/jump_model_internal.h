@@ -34,6 +34,11 @@ inline constexpr double kBrakeLimitClearance = 0.03;
 /// past the stop the fixed-base brake model (startBrake) gives them, onto the HFE's range
 /// (docs/backflip.md, "Session 13").
 inline constexpr double kFlipHindHipClearance = 0.2;
+/// ... and a backflip's hind knee (KFE) from its extension stop while the hind wheels push
+/// [rad]: a 42 Nm flip whose hind knee straightened to 0.008 rad from the stop in the hind-only
+/// push chattered in Simbody (the knee at the stop, then +-42 Nm at ~100 Hz against the
+/// take-off gains, the wheel bouncing) and turned 5.70 rad (docs/backflip.md, "A 42 Nm flip").
+inline constexpr double kFlipHindKneeClearance = 0.1;
 
 /// One joint braking from its speed at a lift-off to rest (docs/planner.md, "Flight: the legs
 /// brake"): at `decel` up to the drive's corner speed and above it at the same share of the

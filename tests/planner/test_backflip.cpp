@@ -2,6 +2,7 @@
 // planned flip on the paper's 57 Nm knee (models/actuators-57nm.yaml).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "error_of.h"
@@ -152,6 +153,36 @@ TEST(Backflip, FrontPairMomentumGoesToTheBodyAtT1) {
   const double slope = plan.centroidal[k + 2].pitch_rate - plan.centroidal[k + 1].pitch_rate;
   const double step = plan.centroidal[k + 1].pitch_rate - c.pitch_rate - slope;
   EXPECT_NEAR(step, handover / inertia, 0.05 * std::abs(handover / inertia)) << handover;
+}
+
+// A backflip's hind knee pushes 0.1 rad short of its extension stop (-0.5 rad;
+// kFlipHindKneeClearance): a 42 Nm flip planned without that clearance straightened the hind
+// knee to 0.008 rad from the stop in the hind-only push, and Simbody's knee chattered on it
+// (docs/backflip.md, "A 42 Nm flip, verified in Simbody"). That flip's search vector now
+// violates the joint range by the clearance less its 0.008 rad, at the hind knee, in the push.
+TEST(Backflip, HindKneePushesClearOfItsExtensionStop) {
+  const PlannerSettings s;
+  const model::RobotModel robot42 = model::RobotModel::loadDefault("actuators.yaml");
+  const JumpPlanner planner(robot42, s);
+  Scenario sc = makePreset(planner, "backflip");
+  sc.initial.v0 = -1.0;
+  const JumpModel m(planner.robot(), s, sc.task, sc.initial);
+  Eigen::VectorXd u(11);
+  u << -0.000363, 0.019808, 0.132334, 0.400000, 0.270433, 2.539553, 0.272052, 1.500000, 12.246117,
+      0.145947, 0.499993;
+  Evaluation ev;
+  m.evaluate(u, ev);
+  const ClassMargin& pos = ev.margins[static_cast<int>(ConstraintClass::JointPosition)];
+  const JumpPlan plan = m.buildPlan(u);
+  const int knee = model::jointIndex(model::Leg::LH, model::JointKind::KFE);
+  double straightest = -10.0;  // the hind knee's largest angle while the hind wheels push
+  for (int k = 0; k < plan.numSamples() && k * plan.dt < plan.t2; ++k)
+    straightest = std::max(straightest, plan.q(k, knee));
+  ASSERT_GT(straightest, -0.52);  // the flip that chattered: within 0.02 rad of the stop
+  EXPECT_EQ(pos.location, knee);
+  EXPECT_GT(pos.t, plan.t1);
+  EXPECT_LT(pos.t, plan.t2);
+  EXPECT_NEAR(pos.worst, -0.5 - 0.1 - straightest, 0.005);
 }
 
 }  // namespace
