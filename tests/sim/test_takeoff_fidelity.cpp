@@ -247,26 +247,28 @@ TEST(TakeoffFidelity, PlannedMomentumFollowsTheGroundForces) {
 }
 
 // The presets at planner seed 7 (default settings) against Simbody, with the legs braking
-// from their take-off speeds (issue 22; before, they were asked to stop dead at t2): the CoM
-// apex within 1 cm (issue 22's target), the lift-off CoM velocity at Simbody's lift-off within
-// 3.5 % (the target is 1 %: met on forward_hw and forward, not on vertical, whose plan lifts
-// off with vx -0.16 m/s against Simbody's -0.09), the touchdown pitch within 0.045 rad on
-// forward_hw and 0.05 on forward and vertical (session 12: 0.037, 0.048 and 0.040; the target
-// is 0.03; forward_hw's error moves with the plan the search finds, 0.007-0.039 over the
-// braking and tuck variants of sessions 11-12), the touchdown dx within 4.5 cm (forward -4.5,
-// vertical +4.0: not met; the target is 3). What is left is the stance's momentum
-// (docs/planner.md, "Flight: the legs brake"). Each case prints one line of JSON.
+// from their take-off speeds (session 11) and the take-off's feed-forward carrying the legs'
+// own dynamics (session 13; docs/planner.md, "Stance torques"). Issue 22's targets where they
+// are met: the CoM apex within 1 cm (forward_hw +5.0, forward +7.0, vertical +6.9 mm), the
+// touchdown dx within 3 cm (-2.2, -2.7, +3.0 cm) and vertical's touchdown pitch within 0.03 rad
+// (0.025). Not met: the touchdown pitch of forward_hw (0.036) and forward (0.032), bound at
+// 0.04 and 0.035, and the lift-off CoM velocity at Simbody's lift-off (target 1 %: 1.8, 1.7 and
+// 3.5 %, bound 4 %): Simbody's wheels push 4.5-5 ms past the plan's t2 (the plan's force is not
+// zero there), which the plan's ballistic flight from t2 does not have. Each case prints one
+// line of JSON.
 TEST(TakeoffFidelity, PresetsAgreeWithTheSimulation) {
   for (const char* task : {"forward_hw", "forward", "vertical"}) {
     const Fidelity f = measure(task, std::nullopt);
     SCOPED_TRACE(task);
     EXPECT_TRUE(f.passed);
     const double speed = std::hypot(f.vx_plan, f.vz_plan);
-    EXPECT_LE(std::hypot(f.vx_sim - f.vx_plan, f.vz_sim - f.vz_plan), 0.035 * speed);
+    EXPECT_LE(std::hypot(f.vx_sim - f.vx_plan, f.vz_sim - f.vz_plan), 0.04 * speed);
     EXPECT_LE(std::abs(f.apex_sim - f.apex_plan), 0.01);
-    EXPECT_LE(std::abs(f.td_pitch_sim - f.td_pitch_plan),
-              std::string(task) == "forward_hw" ? 0.045 : 0.05);
-    EXPECT_LE(std::abs(f.td_dx_sim - f.td_dx_plan), 0.045);
+    const std::string name = task;
+    EXPECT_LE(std::abs(f.td_pitch_sim - f.td_pitch_plan), name == "forward_hw" ? 0.04
+                                                          : name == "forward"  ? 0.035
+                                                                               : 0.03);
+    EXPECT_LE(std::abs(f.td_dx_sim - f.td_dx_plan), 0.03);
   }
 }
 
