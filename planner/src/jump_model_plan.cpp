@@ -75,12 +75,34 @@ LinkMotion linkMotion(const JumpModelConstants& M, const Sample& smp) {
       Eigen::AngleAxisd(-smp.s.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
   Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
   X_WB.linear() = R;
+  // The base from the CoM and the sample's CoM offset c(q) (the URDF's composite CoM, tested).
   X_WB.translation() =
-      Eigen::Vector3d(smp.s.x, 0.0, smp.s.z) - R * M.robot.calcCompositeInertia(out.q).com;
+      Eigen::Vector3d(smp.s.x, 0.0, smp.s.z) - R * Eigen::Vector3d(smp.c.x(), 0.0, smp.c.y());
   out.X_W = M.robot.calcLinkPoses(out.q);
   for (Eigen::Isometry3d& X : out.X_W) X = X_WB * X;
   return out;
 }
+
+// The last stencil points' link motions: buildPlan's rows are kDynamicsStep apart, so each row
+// needs one new contact sample instead of three.
+struct DynamicsCache {
+  std::array<double, 3> t{-1.0, -1.0, -1.0};
+  std::array<Segment, 3> segment{};
+  std::array<LinkMotion, 3> motion;
+  int next = 0;
+
+  const LinkMotion* find(double time, Segment seg) const {
+    for (int i = 0; i < 3; ++i)
+      if (segment[i] == seg && std::abs(t[i] - time) < 1e-12) return &motion[i];
+    return nullptr;
+  }
+  void put(double time, Segment seg, const LinkMotion& m) {
+    t[next] = time;
+    segment[next] = seg;
+    motion[next] = m;
+    next = (next + 1) % 3;
+  }
+};
 
 // Nose-down rotation angle of a link frame about y [rad].
 double linkAngle(const Eigen::Isometry3d& X) {
@@ -88,20 +110,31 @@ double linkAngle(const Eigen::Isometry3d& X) {
 }
 
 void addLegDynamics(const JumpModelConstants& M, const Solved& S, double t, Segment segment,
-                    const Sample& smp, Eigen::Vector2d c_guess, PlanRow& out) {
+                    const Sample& smp, Eigen::Vector2d c_guess, DynamicsCache* cache,
+                    PlanRow& out) {
   const double a = segment == Segment::HindOnly ? S.t1 : 0.0;
   const double b = segment == Segment::FourWheels && S.two_step ? S.t1 : S.t2;
   const double h = std::min(kDynamicsStep, 0.5 * (b - a));
   if (h <= 0.0) return;
   const double t0 = std::clamp(t - h, a, b - 2.0 * h);  // the stencil t0, t0 + h, t0 + 2h
   const bool hind_only = segment == Segment::HindOnly;
-  std::array<Sample, 3> ring;
   std::array<LinkMotion, 3> lm;
   for (int i = 0; i < 3; ++i) {
-    contactSample(M, S, t0 + i * h, ring[i], hind_only, c_guess, /*converge=*/true);
-    lm[i] = linkMotion(M, ring[i]);
+    const double ti = t0 + i * h;
+    if (const LinkMotion* hit = cache ? cache->find(ti, segment) : nullptr) {
+      lm[i] = *hit;
+      continue;
+    }
+    if (std::abs(ti - t) < 1e-12) {
+      lm[i] = linkMotion(M, smp);
+    } else {
+      Sample other;
+      contactSample(M, S, ti, other, hind_only, c_guess, /*converge=*/true);
+      lm[i] = linkMotion(M, other);
+    }
+    if (cache) cache->put(ti, segment, lm[i]);
   }
-  const LinkMotion now = linkMotion(M, smp);
+  const LinkMotion now = std::abs(t0 + h - t) < 1e-12 ? lm[1] : linkMotion(M, smp);
   const auto& links = M.robot.links();
   const Eigen::Vector3d g(0.0, 0.0, M.settings.gravity);
   for (const model::Leg leg : model::kLegs) {
@@ -146,7 +179,7 @@ void addLegDynamics(const JumpModelConstants& M, const Solved& S, double t, Segm
 // The references at time t in `segment` (the segment's own values at its boundaries).
 // `c_guess` warm-starts the contact sample's CoM-offset iteration and is updated.
 void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment segment,
-             Eigen::Vector2d& c_guess, PlanRow& out) {
+             Eigen::Vector2d& c_guess, PlanRow& out, DynamicsCache* cache = nullptr) {
   using model::JointKind;
   using model::Leg;
   std::array<Eigen::Vector2d, 2> q, qd;
@@ -207,7 +240,7 @@ void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment seg
     out.qd[haa + 3] = wheel_rate[pair];
     out.tau[haa + 3] = wheel_tau[pair];
   }
-  if (segment != Segment::Flight) addLegDynamics(M, S, t, segment, smp, c_guess, out);
+  if (segment != Segment::Flight) addLegDynamics(M, S, t, segment, smp, c_guess, cache, out);
 }
 
 // D = [s(t1/2), s(t2), s(t3), t1, t2, t3] of a solved candidate.
@@ -385,13 +418,14 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
   plan.tau.setZero(N, model::kNumJoints);
   Eigen::Vector2d c_guess = k_.c0, c_before = k_.c0;
   detail::PlanRow row;
+  detail::DynamicsCache cache;
   for (int k = 0; k < N; ++k) {
     const double t = std::min(k * plan.dt, S.t3);
     // The CoM offset's iteration starts from its linear extrapolation over the last two samples.
     const Eigen::Vector2d c_last = c_guess;
     if (k >= 2) c_guess = 2.0 * c_last - c_before;
     c_before = c_last;
-    detail::planRow(k_, S, t, detail::segmentAt(S, t), c_guess, row);
+    detail::planRow(k_, S, t, detail::segmentAt(S, t), c_guess, row, &cache);
     plan.centroidal[k] = row.s;
     plan.q.row(k) = row.q.transpose();
     plan.qd.row(k) = row.qd.transpose();

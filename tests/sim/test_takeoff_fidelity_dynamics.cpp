@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <iostream>
 
 #include "nmpc/inverse_dynamics.h"
 #include "planner/jump_planner.h"
@@ -96,9 +97,10 @@ TEST(TakeoffDynamics, StanceTorquesMatchTheInverseDynamics) {
       }
       ++rows;
     }
+    std::cout << task << ": " << rows << " rows, largest difference " << worst << " Nm\n";
     EXPECT_GT(rows, 100);
     // The difference steps of the two (1 ms in the planner, the plan's rows here) and the
-    // planner's planar link inertia (pitch only) leave ~0.02 Nm.
+    // planner's planar link inertia (pitch only) leave up to 0.05 Nm (seed 7).
     EXPECT_LT(worst, 0.1);
   }
 }
