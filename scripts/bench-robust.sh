@@ -15,6 +15,10 @@
 # the opposite bias, plant key range_bias_m = -wall_position_error_m, and reads the configured
 # place).
 set -euo pipefail
+if [ "${1:-}" = "-h" ] || [ "${1:-}" = "--help" ]; then
+  sed -n '2,/^set -euo/p' "$0" | sed -e '$d' -e 's/^# \{0,1\}//'
+  exit 0
+fi
 # DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
 export OMP_WAIT_POLICY="${OMP_WAIT_POLICY:-passive}"
 cd "$(dirname "$0")/.."
@@ -24,6 +28,12 @@ SCENARIO=${3:-forward}
 FIRST=${4:-1}
 shift $(( $# > 4 ? 4 : $# ))
 BIN=$BUILD/bin
+for exe in robot_client planner_server planner_cli; do
+  if [ ! -x "$BIN/$exe" ]; then
+    echo "bench-robust: $BIN/$exe not found (first argument: the build directory; --help)" >&2
+    exit 2
+  fi
+done
 WORK=$(mktemp -d)
 PORT=${WJ_BENCH_PORT:-50161}
 WALL_ERROR=${WJ_WALL_ERROR:-seen}

@@ -183,6 +183,9 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   }
   k_.z_land = standingComHeight(k_.robot, q_land);
   k_.c_land = comInBase(k_.q_landing, k_.q_landing);
+  k_.extend_start = k_.task.obstacle && !k_.task.landsOnObstacle()
+                        ? k_.settings.wall_extend_start_fraction
+                        : k_.settings.extend_start_fraction;
   if (k_.task.obstacle && k_.task.obstacle->x_min <= k_.d_front + k_.wheel_radius)
     throw std::invalid_argument("task.obstacle.x_min must be ahead of the front wheels (> " +
                                 std::to_string(k_.d_front + k_.wheel_radius) +

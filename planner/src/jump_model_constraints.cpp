@@ -136,8 +136,9 @@ void emitContact(const JumpModelConstants& M, const Sample& smp, Sink& sink) {
     auto within = [&](int j, const std::array<double, 2>& lim) {
       const double m = std::min(p.q[j] - lim[0], lim[1] - p.q[j]);
       if (!p.brakes) return m;
-      return std::min(m,
-                      std::min(p.q_stop[j] - lim[0], lim[1] - p.q_stop[j]) - kBrakeLimitClearance);
+      const double clearance =
+          pair == 0 && j == 0 && M.task.isBackflip() ? kFlipHindHipClearance : kBrakeLimitClearance;
+      return std::min(m, std::min(p.q_stop[j] - lim[0], lim[1] - p.q_stop[j]) - clearance);
     };
     sink(ConstraintClass::JointPosition, within(0, M.lim_hfe), smp.t, base + 1);
     sink(ConstraintClass::JointPosition, within(1, M.lim_kfe), smp.t, base + 2);
@@ -187,7 +188,7 @@ template <class Sink, class Stop>
 bool sweepContact(const JumpModelConstants& M, const Solved& S, Sink& sink, Evaluation* ev,
                   bool smooth_energy, Stop&& stop, int* slot = nullptr) {
   const auto& st = M.settings;
-  const bool from_takeoff = st.contact_chain == ContactChain::FromTakeoff;
+  const bool from_takeoff = chainsFromTakeoff(M);
   const int n1 = st.samples_phase1, n2 = S.two_step ? st.samples_phase2 : 0;
   const int count = n1 + n2;
   // Per-thread scratch, grown once: the DE evaluates on a fixed team of threads.
@@ -455,7 +456,7 @@ void JumpModel::evaluate(const Eigen::Ref<const Eigen::VectorXd>& u, Evaluation&
     return;
   }
   // (The converged take-off posture is needed by the flight, and by the FromTakeoff chain.)
-  const bool posture_first = k_.settings.contact_chain == ContactChain::FromTakeoff;
+  const bool posture_first = detail::chainsFromTakeoff(k_);
   if (posture_first) detail::solveTakeoffPosture(k_, S);
   if (!detail::sweepContact(k_, S, sink, &ev, false, cut)) return;
   // 3. The flight attitude and the whole target error.

@@ -255,7 +255,7 @@ double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int 
   const JointBrake& b = S.brake[pair][j];
   const double q_tuck = j == 0 ? st.tuck_hfe_rad : st.tuck_kfe_rad;
   const double w_nl = (j == 0 ? M.env_hfe : M.env_kfe).no_load_speed_rad_s;
-  const double t_tuck = st.tuck_end_fraction * S.Tf, t_extend = st.extend_start_fraction * S.Tf;
+  const double t_tuck = st.tuck_end_fraction * S.Tf, t_extend = M.extend_start * S.Tf;
   if (pair == 1) return t_tuck - b.t_stop;  // the front wheels must clear an obstacle first
   return std::min(
       std::max(t_tuck - b.t_stop, 1.5 * std::abs(q_tuck - b.q_stop) / (kTuckSpeedShare * w_nl)),
@@ -271,7 +271,7 @@ Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int 
   const auto& st = M.settings;
   const double tau = t - S.t2, xi = tau / S.Tf;
   const Eigen::Vector2d q_tuck(st.tuck_hfe_rad, st.tuck_kfe_rad);
-  if (tau < st.extend_start_fraction * S.Tf || tau < S.brake_end) {
+  if (tau < M.extend_start * S.Tf || tau < S.brake_end) {
     Eigen::Vector2d q;
     for (int j = 0; j < 2; ++j) {
       const JointBrake& b = S.brake[pair][j];
@@ -290,7 +290,7 @@ Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int 
     }
     return q;
   }
-  const double a = st.extend_start_fraction, T = (st.extend_end_fraction - a) * S.Tf;
+  const double a = M.extend_start, T = (st.extend_end_fraction - a) * S.Tf;
   const double u = (xi - a) / (st.extend_end_fraction - a);
   if (qd) *qd = (M.q_landing - q_tuck) * smoothstepRate(u) / T;
   return q_tuck + (M.q_landing - q_tuck) * smoothstep(u);

@@ -29,6 +29,11 @@ inline constexpr double kBrakeTorqueShare = 0.8;
 inline constexpr double kTuckSpeedShare = 0.8;
 /// How far from its limit a braking joint must come to rest [rad].
 inline constexpr double kBrakeLimitClearance = 0.03;
+/// ... a backflip's hind hip (HFE) at the lift-off [rad]: the hind knees brake from 30-36 rad/s
+/// there, and their braking torque's reaction on the thighs swung Simbody's hips 0.14-0.18 rad
+/// past the stop the fixed-base brake model (startBrake) gives them, onto the HFE's range
+/// (docs/backflip.md, "Session 13").
+inline constexpr double kFlipHindHipClearance = 0.2;
 
 /// One joint braking from its speed at a lift-off to rest (docs/planner.md, "Flight: the legs
 /// brake"): at `decel` up to the drive's corner speed and above it at the same share of the
@@ -132,6 +137,15 @@ struct Sample {
   Eigen::Vector2d rel_h = Eigen::Vector2d::Zero(), rel_f = Eigen::Vector2d::Zero();
   double hind_axle_vx = 0.0;
 };
+
+/// Whether the take-off's constraint samples chain their CoM-offset iteration from the
+/// converged take-off posture backwards (PlannerSettings::contact_chain), which a backflip
+/// always does: chained from the start, the flips' lift-off sample missed the converged
+/// posture by 0.035 rad and 3 rad/s at the hind knee, and the plan's braking knee went past its
+/// stop unseen (docs/backflip.md, "Session 13").
+inline bool chainsFromTakeoff(const JumpModelConstants& M) {
+  return M.settings.contact_chain == ContactChain::FromTakeoff || M.task.isBackflip();
+}
 
 // ---- take-off (jump_model_takeoff.cpp)
 

@@ -480,8 +480,8 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
     pieces.push_back({0.0, S.t2, detail::Segment::FourWheels});
   }
   std::vector<double> cuts;
-  for (const double f : {k_.settings.tuck_end_fraction, k_.settings.extend_start_fraction,
-                         k_.settings.extend_end_fraction})
+  for (const double f :
+       {k_.settings.tuck_end_fraction, k_.extend_start, k_.settings.extend_end_fraction})
     cuts.push_back(S.t2 + f * S.Tf);
   for (int pair = 0; pair < 2; ++pair) {
     brake_corners(S.t2, S.brake[pair], cuts);

@@ -62,6 +62,51 @@ bool solveAxis(double m, double g, double p0, double v0, bool two_step, double t
   return true;
 }
 
+// Horizontal split of phase 1: the front pair takes the same ratio of horizontal to normal
+// force as the whole robot over phase 1 (it does not enter the dynamics: both contacts are at
+// z = 0). Returns false without a positive vertical impulse.
+bool splitPhase1(Solved& S, const Poly& fFz1) {
+  const Poly IFz = integral(S.Fz1), IFx = integral(S.Fx1);
+  const double impulse_z = IFz(S.t1);
+  if (!(impulse_z > 0.0)) return false;
+  const double kappa = IFx(S.t1) / impulse_z;
+  S.fFz1 = fFz1;
+  S.fFx1 = kappa * fFz1;
+  S.fHz1 = S.Fz1 + (-1.0) * fFz1;
+  S.fHx1 = S.Fx1 + (-1.0) * S.fFx1;
+  return true;
+}
+
+// A two-step take-off's front pair at its lift-off (t1, phase 1's last sample): its axle, wheel
+// rate and reach, the braking that brings it to rest, and the stance momentum there. Needs
+// phase 1 solved (S.P1, S.W1 and the split); returns the sample.
+Sample liftFrontPair(const JumpModelConstants& M, Solved& S) {
+  Sample smp;
+  // (The second pass starts from the first pass's converged offset.)
+  contactSample(M, S, S.t1, smp, /*phase2=*/false, S.stance_momentum ? S.c_front_t1 : M.c0,
+                /*converge=*/true);
+  S.front_b_t1 = M.leg.forward(smp.front.q);
+  S.front_wheel_rate_t1 = smp.front.wheel_rate;
+  S.front_pose_t1 = M.leg.inversePose(S.front_b_t1, &S.front_reach_t1);
+  // Once lifted, the front legs brake from their speeds at t1 and hold where they stop.
+  S.front_brake = startBrake(M, 1, smp.front.q, smp.front.qd);
+  S.front_pose_stop = poseOf(Eigen::Vector2d(S.front_brake[0].q_stop, S.front_brake[1].q_stop));
+  S.c_front_t1 = smp.c;
+  if (!S.stance_momentum) S.e_t1 = stanceMomentumExcess(M, smp);
+  return smp;
+}
+
+// The front pair's nose-up angular momentum relative to the body at its lift-off sample: what
+// its braking to rest hands to the body (the legs' motion and the shanks' turn of the wheels,
+// whose joint rate holds) [kg m^2/s].
+double frontPairHandover(const JumpModelConstants& M, const Sample& smp) {
+  const double moving = stanceMomentumExcess(M, smp);
+  const double at_rest =
+      stanceMomentumExcess(M, {smp.hind.q, smp.front.q}, {smp.hind.qd, Eigen::Vector2d::Zero()},
+                           {smp.hind.wheel_rate, smp.front.wheel_rate}, smp.s.pitch_rate);
+  return moving - at_rest;
+}
+
 // The pitch of the take-off (Eq. S3, centroidal): the whole robot's angular momentum about its
 // CoM changes by the moment of the ground forces,
 //   d/dt (I theta' + E) = d_H Fz + (d_F - d_H) f_Fz + z Fx,
@@ -119,45 +164,38 @@ bool solvePitch(const JumpModelConstants& M, Solved& S) {
     b[2] = I * (S.we - s0.pitch_rate) - IA1(t1) - IA2(T2) + S.D2(T2);
     const Eigen::PartialPivLU<Eigen::Matrix3d> lu(A);
     if (!(std::abs(lu.determinant()) > 1e-18)) return false;
-    const Eigen::Vector3d k = lu.solve(b);
+    Eigen::Vector3d k = lu.solve(b);
+    // Phase 1 needs k[0] alone (row 0): its pitch, the pairs' forces and the front pair's
+    // lift-off sample at t1 do not depend on phase 2.
     fFz1 = k[0] * Poly{-t1, 1.0};
     S.P1 = integral(integral((1.0 / I) * (A1 + k[0] * B1), s0.pitch_rate), s0.pitch) +
            (-1.0 / I) * ID1;
-    const double th1 = S.P1(t1), w1 = derivative(S.P1)(t1);
+    S.W1 = derivative(S.P1);
+    if (!splitPhase1(S, fFz1)) return false;
+    const Sample smp = liftFrontPair(M, S);
+    // A backflip's lifted front pair brakes to rest relative to the body: with no ground force
+    // on it, the whole robot's momentum about the CoM does not change, so the pair's momentum
+    // relative to the body goes into the body's I theta' at t1 (docs/backflip.md, "Session
+    // 13"). The stance-momentum pass carries it in E instead.
+    double handover = 0.0;
+    if (roll_from_rest && !S.stance_momentum) {
+      handover = frontPairHandover(M, smp);
+      b[1] -= handover * T2;
+      b[2] -= handover;
+      k = lu.solve(b);  // k[0] unchanged: row 0 holds phase 1 only
+    }
+    const double th1 = S.P1(t1), w1 = S.W1(t1) + handover / I;
     S.P2 = integral(integral((1.0 / I) * (A2 + k[1] * C1 + k[2] * C2), w1), th1) + (-1.0 / I) * ID2;
     S.dH2 = roll_from_rest ? Poly{dH, 0.0, k[1], k[2]} : Poly{dH, k[1], k[2]};
     S.ddH2 = derivative(S.dH2);
     S.fHx2 = S.Fx2;
     S.fHz2 = S.Fz2;
   }
-  // Horizontal split: the front pair takes the same ratio of horizontal to normal force as
-  // the whole robot over phase 1 (it does not enter the dynamics: both contacts are at z = 0).
-  const Poly IFz = integral(S.Fz1), IFx = integral(S.Fx1);
-  const double impulse_z = IFz(S.t1);
-  if (!(impulse_z > 0.0)) return false;
-  const double kappa = IFx(S.t1) / impulse_z;
-  S.fFz1 = fFz1;
-  S.fFx1 = kappa * fFz1;
-  S.fHz1 = S.Fz1 + (-1.0) * fFz1;
-  S.fHx1 = S.Fx1 + (-1.0) * S.fFx1;
+  if (!S.two_step && !splitPhase1(S, fFz1)) return false;
   S.W1 = derivative(S.P1);
   S.W2 = derivative(S.P2);
   S.mid = stateAt(M, S, S.t1 / 2, M.settings.gravity);
   S.takeoff = stateAt(M, S, S.t2, M.settings.gravity);
-  if (S.two_step) {
-    Sample smp;
-    // (The second pass starts from the first pass's converged offset.)
-    contactSample(M, S, S.t1, smp, /*phase2=*/false, S.stance_momentum ? S.c_front_t1 : M.c0,
-                  /*converge=*/true);
-    S.front_b_t1 = M.leg.forward(smp.front.q);
-    S.front_wheel_rate_t1 = smp.front.wheel_rate;
-    S.front_pose_t1 = M.leg.inversePose(S.front_b_t1, &S.front_reach_t1);
-    // Once lifted, the front legs brake from their speeds at t1 and hold where they stop.
-    S.front_brake = startBrake(M, 1, smp.front.q, smp.front.qd);
-    S.front_pose_stop = poseOf(Eigen::Vector2d(S.front_brake[0].q_stop, S.front_brake[1].q_stop));
-    S.c_front_t1 = smp.c;
-    if (!S.stance_momentum) S.e_t1 = stanceMomentumExcess(M, smp);
-  }
   return true;
 }
 

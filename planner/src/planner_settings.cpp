@@ -126,6 +126,10 @@ void PlannerSettings::validate() const {
         "postures.tuck_end_fraction", "in (0, extend_start_fraction)", tuck_end_fraction);
   check(extend_start_fraction < extend_end_fraction && extend_end_fraction <= 1,
         "postures.extend_end_fraction", "in (extend_start_fraction, 1]", extend_end_fraction);
+  check(wall_extend_start_fraction > tuck_end_fraction &&
+            wall_extend_start_fraction < extend_end_fraction,
+        "postures.wall_extend_start_fraction", "in (tuck_end_fraction, extend_end_fraction)",
+        wall_extend_start_fraction);
   check(samples_phase1 >= 4 && samples_phase1 <= 1000, "sampling.samples_phase1", "in [4, 1000]",
         samples_phase1);
   check(samples_phase2 >= 4 && samples_phase2 <= 1000, "sampling.samples_phase2", "in [4, 1000]",
@@ -339,7 +343,8 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"tuck_kfe_rad", number(s.tuck_kfe_rad)},
                       {"tuck_end_fraction", number(s.tuck_end_fraction)},
                       {"extend_start_fraction", number(s.extend_start_fraction)},
-                      {"extend_end_fraction", number(s.extend_end_fraction)}});
+                      {"extend_end_fraction", number(s.extend_end_fraction)},
+                      {"wall_extend_start_fraction", number(s.wall_extend_start_fraction)}});
        }},
       {"sampling",
        [&](const YAML::Node& n) {

@@ -178,9 +178,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // screened against the step box; 8: a touchdown target over the obstacle lands on it, which
   // the probes below, over the ground beyond their box, do not see; 9: the backflip's box and
   // initial guess below; 10: a backflip's hind roll from its phase-1 speed at t1, which no probe
-  // (none is a flip) sees, and platform_margin_m below), which the probes below, run without
-  // the polish, do not see.
-  w.put(std::uint32_t{10});
+  // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below),
+  // which the probes below, run without the polish, do not see.
+  w.put(std::uint32_t{11});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -217,6 +217,8 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   for (const double v : s.flip_initial_guess) w.putDouble(v);
   // The clearance a platform landing keeps (no probe lands on a box).
   w.putDouble(s.platform_margin_m);
+  // When a wall jump's legs start extending (the probes' worst clearance need not fall there).
+  w.putDouble(s.wall_extend_start_fraction);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

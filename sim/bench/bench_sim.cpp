@@ -77,7 +77,8 @@ int main(int argc, char** argv) {
     s.integrator.kind = parseEnum(
         integrator,
         std::array{sim::IntegratorKind::SemiExplicitEuler, sim::IntegratorKind::SemiExplicitEuler2,
-                   sim::IntegratorKind::RungeKutta3, sim::IntegratorKind::RungeKuttaMerson});
+                   sim::IntegratorKind::RungeKutta3, sim::IntegratorKind::RungeKuttaMerson,
+                   sim::IntegratorKind::SemiExplicitEulerSimbody});
   if (!wheel_shape.empty())
     s.contact.wheel_shape =
         parseEnum(wheel_shape, std::array{sim::WheelShape::Sphere, sim::WheelShape::Ellipsoid});

@@ -6,7 +6,10 @@
 // the verifier's default settings; with `--compare` also once with the reference settings
 // (VerifierSettings::reference()), and the verdicts and measured quantities are compared; with
 // `--compare-models` also once on the full 3-D model (VerificationModel::Full, same
-// integrator) against the default (the sagittal model for these symmetric plans), timed too.
+// integrator) against the default (the sagittal model for these symmetric plans), timed too;
+// with `--compare-simbody` also with IntegratorKind::SemiExplicitEulerSimbody (the same method
+// stepped by Simbody's integrator instead of the project's EulerStepper), timed too, and the
+// reports must agree bit for bit.
 // Prints JSON.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -81,6 +84,27 @@ nlohmann::json reportJson(const sm::VerificationReport& r) {
           {"final_base_height_m", r.final_base_height_m}};
 }
 
+// Every measured quantity of the two reports is the same double (JSON prints the shortest
+// representation that reads back to the same double), and so are the verdicts, reasons,
+// per-joint peaks and work counts.
+bool identicalReports(const sm::VerificationReport& a, const sm::VerificationReport& b) {
+  const auto joints = [](const sm::VerificationReport& r) {
+    nlohmann::json j = nlohmann::json::array();
+    for (const sm::JointMetrics& m : r.joints)
+      j.push_back({m.max_abs_torque_nm, m.max_abs_demand_nm, m.max_abs_speed_rad_s,
+                   m.max_envelope_ratio, m.max_speed_ratio, m.min_q_rad, m.max_q_rad});
+    return j;
+  };
+  const auto rest = [](const sm::VerificationReport& r) {  // NaN (not measured) prints null
+    return nlohmann::json{r.final_rotation_rad,   r.apex_height_error_m, r.touchdown_dx_error_m,
+                          r.max_base_z_m,         r.integrator_steps,    r.initial_ground_gap_m,
+                          r.nominal_base_height_m};
+  };
+  // Compared as printed: a NaN (an event not measured) is unequal to itself as a number.
+  return reportJson(a).dump() == reportJson(b).dump() && joints(a).dump() == joints(b).dump() &&
+         rest(a).dump() == rest(b).dump() && a.reasons == b.reasons;
+}
+
 // The largest absolute differences of the measured quantities between two reports.
 struct Differences {
   double event_pos_m = 0.0, event_vel_m_s = 0.0, event_pitch_rad = 0.0, event_t_s = 0.0;
@@ -133,7 +157,7 @@ int main(int argc, char** argv) {
   int standing = 10, candidates = 2, runs = 3;
   std::uint64_t seed = 7;
   std::vector<std::string> presets = pl::presetNames();
-  bool compare = false, compare_models = false, full_only = false;
+  bool compare = false, compare_models = false, full_only = false, compare_simbody = false;
   app.add_option("--standing", standing, "bench_server's cold requests (0..n-1)")
       ->capture_default_str();
   app.add_option("--presets", presets, "planner presets (none: --presets '')");
@@ -149,6 +173,8 @@ int main(int argc, char** argv) {
                "verify on the full 3-D model only (VerificationModel::Full), e.g. for callgrind");
   app.add_flag("--compare-models", compare_models,
                "also verify on the full 3-D model (VerificationModel::Full)");
+  app.add_flag("--compare-simbody", compare_simbody,
+               "also verify with Simbody's SemiExplicitEulerIntegrator (identical reports)");
   CLI11_PARSE(app, argc, argv);
   presets.erase(std::remove(presets.begin(), presets.end(), std::string()), presets.end());
 
@@ -165,6 +191,11 @@ int main(int argc, char** argv) {
   sm::VerifierSettings full_settings;
   full_settings.model = sm::VerificationModel::Full;
   const sm::Verifier full(robot, full_settings);
+  sm::VerifierSettings simbody_settings = settings;
+  simbody_settings.sim.integrator.kind = sm::IntegratorKind::SemiExplicitEulerSimbody;
+  const sm::Verifier simbody(robot, simbody_settings);
+  std::vector<double> simbody_cpu_all;
+  int simbody_identical = 0, simbody_compared = 0;
   nlohmann::json out, rows = nlohmann::json::array();
   std::vector<double> wall_all, cpu_all, ref_cpu_all, full_cpu_all, simulated_all;
   int verdicts_same = 0, compared = 0, models_same = 0, models_compared = 0, sagittal_runs = 0;
@@ -238,6 +269,21 @@ int main(int argc, char** argv) {
                              {"differences", one.toJson()},
                              {"report", reportJson(f)}};
       }
+      if (compare_simbody) {
+        std::vector<double> simbody_cpu;
+        sm::VerificationReport b;
+        for (int i = 0; i < runs; ++i) {
+          const double c0 = threadCpuMs();
+          b = simbody.verify(plan, scenario);
+          simbody_cpu.push_back(threadCpuMs() - c0);
+        }
+        simbody_cpu_all.push_back(median(simbody_cpu));
+        ++simbody_compared;
+        const bool identical = identicalReports(report, b);
+        simbody_identical += identical ? 1 : 0;
+        row["simbody_integrator"] = {{"cpu_ms", median(simbody_cpu)}, {"identical", identical}};
+        if (!identical) row["simbody_integrator"]["report"] = reportJson(b);
+      }
       rows.push_back(row);
     }
   }
@@ -251,6 +297,11 @@ int main(int argc, char** argv) {
     out["models_compared"] = models_compared;
     out["models_same_verdicts"] = models_same;
     out["models_largest_differences"] = model_diff.toJson();
+  }
+  if (compare_simbody) {
+    out["simbody_integrator_median_cpu_ms"] = median(simbody_cpu_all);
+    out["simbody_integrator_compared"] = simbody_compared;
+    out["simbody_integrator_identical"] = simbody_identical;
   }
   if (compare) {
     out["reference_median_cpu_ms"] = median(ref_cpu_all);

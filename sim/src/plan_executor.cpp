@@ -53,6 +53,11 @@ void ExecutorSettings::validate() const {
   requireNonNegative(hind_pitch_kd, "hind_pitch_kd");
   requireNonNegative(hind_pitch_max_nm, "hind_pitch_max_nm");
   requireNonNegative(lifted_pair_margin_rad, "lifted_pair_margin_rad");
+  requireNonNegative(two_step_takeoff_kp, "two_step_takeoff_kp");
+  requireNonNegative(two_step_takeoff_kd, "two_step_takeoff_kd");
+  requireNonNegative(two_step_flight_kp, "two_step_flight_kp");
+  requireNonNegative(two_step_flight_kd, "two_step_flight_kd");
+  requireNonNegative(two_step_landing_wheel_decel_m_s2, "two_step_landing_wheel_decel_m_s2");
   if (!(touchdown_pitch_placement >= 0.0 && touchdown_pitch_placement <= 1.0))
     throw std::invalid_argument("executor settings: touchdown_pitch_placement must be in [0, 1]");
   requireNonNegative(touchdown_placement_max_rad, "touchdown_placement_max_rad");
@@ -119,6 +124,12 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
   for (const model::Leg leg : {model::Leg::LF, model::Leg::RF})
     for (const model::JointKind kind : {model::JointKind::HAA, model::JointKind::Wheel})
       hind_only_ = hind_only_ && plan.tau(k_mid, model::jointIndex(leg, kind)) == 0.0;
+  const ExecutorSettings& e = settings_;
+  takeoff_kp_ = hind_only_ ? e.two_step_takeoff_kp : e.takeoff_kp;
+  takeoff_kd_ = hind_only_ ? e.two_step_takeoff_kd : e.takeoff_kd;
+  flight_kp_ = hind_only_ ? e.two_step_flight_kp : e.flight_kp;
+  flight_kd_ = hind_only_ ? e.two_step_flight_kd : e.flight_kd;
+  landing_decel_ = hind_only_ ? e.two_step_landing_wheel_decel_m_s2 : e.landing_wheel_decel_m_s2;
 }
 
 void PlanExecutor::sample(double t, model::JointCommands& out) const {
@@ -131,8 +142,8 @@ void PlanExecutor::sample(double t, model::JointCommands& out) const {
     c.q_des = (1.0 - a) * plan_.q(k0, j) + a * plan_.q(k0 + 1, j);
     c.qd_des = (1.0 - a) * plan_.qd(k0, j) + a * plan_.qd(k0 + 1, j);
     c.tau_ff = (1.0 - a) * plan_.tau(k0, j) + a * plan_.tau(k0 + 1, j);
-    c.kp = model::isWheel(j) ? 0.0 : settings_.takeoff_kp;
-    c.kd = model::isWheel(j) ? settings_.wheel_kd : settings_.takeoff_kd;
+    c.kp = model::isWheel(j) ? 0.0 : takeoff_kp_;
+    c.kd = model::isWheel(j) ? settings_.wheel_kd : takeoff_kd_;
   }
 }
 
@@ -197,8 +208,8 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
         if (model::isWheel(j)) {
           c = {0.0, wheel_speed_, 0.0, settings_.flight_wheel_kd, 0.0};
         } else {
-          c.kp = settings_.flight_kp;
-          c.kd = settings_.flight_kd;
+          c.kp = flight_kp_;
+          c.kd = flight_kd_;
         }
       }
       addHfeOffset(calcPlacementOffset(t), out);
@@ -211,7 +222,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       const double since = t - landing_start_;
       const double v0 = wheel_speed_ * r;
       const double v_end = handover_ ? handover_->speed_m_s : 0.0;
-      const double dv = settings_.landing_wheel_decel_m_s2 * since;
+      const double dv = landing_decel_ * since;
       const double v = v0 > v_end ? std::max(v_end, v0 - dv) : std::min(v_end, v0 + dv);
       // Legs: q_landing, blended to the hand-over posture over the rest of the landing.
       double s = 0.0, sd = 0.0;
@@ -277,7 +288,8 @@ double PlanExecutor::calcPlacementOffset(double t) const {
 
 void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
                                         model::JointCommands& out) const {
-  const double over = pitch_ - settings_.landing_pitch_limit_rad;  // absolute nose-up pitch
+  // The absolute nose-up pitch, folded: after a backflip the running pitch is a turn more.
+  const double over = foldAngle(pitch_) - settings_.landing_pitch_limit_rad;
   if (over <= 0.0 || (settings_.landing_pitch_kp == 0.0 && settings_.landing_pitch_kd == 0.0))
     return;
   const double rate = -omega_W.y();  // nose-up positive

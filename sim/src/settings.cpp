@@ -187,6 +187,8 @@ std::string_view toString(IntegratorKind kind) {
       return "runge_kutta3";
     case IntegratorKind::RungeKuttaMerson:
       return "runge_kutta_merson";
+    case IntegratorKind::SemiExplicitEulerSimbody:
+      return "semi_explicit_euler_simbody";
   }
   return "?";
 }
@@ -234,7 +236,8 @@ SimSettings parseSimSettings(std::string_view yaml_text, const std::string& orig
     s.integrator.kind =
         parseEnum(i, "kind",
                   std::array{IntegratorKind::SemiExplicitEuler, IntegratorKind::SemiExplicitEuler2,
-                             IntegratorKind::RungeKutta3, IntegratorKind::RungeKuttaMerson});
+                             IntegratorKind::RungeKutta3, IntegratorKind::RungeKuttaMerson,
+                             IntegratorKind::SemiExplicitEulerSimbody});
     s.integrator.accuracy = i.number("accuracy");
     s.integrator.max_step_s = i.number("max_step_s");
     i.finish();

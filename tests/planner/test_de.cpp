@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "error_of.h"
 #include "planner/de/differential_evolution.h"
 
 // Counts heap allocations of the whole process (operator new, Eigen and libgomp all end in malloc)
@@ -733,14 +734,9 @@ TEST(de_Result, FinalPopulationIsSortedBestFirst) {
 void expectInvalidSetting(const std::function<void(Settings&)>& change, const std::string& field) {
   Settings s;
   change(s);
-  try {
-    s.validate();
-    ADD_FAILURE() << "no error for " << field;
-  } catch (const std::invalid_argument& e) {
-    const std::string message = e.what();
-    EXPECT_EQ(message.rfind(field + " must be", 0), 0u) << message;
-    EXPECT_NE(message.find("got"), std::string::npos) << message;
-  }
+  const std::string message = test::errorOf<std::invalid_argument>([&] { s.validate(); });
+  EXPECT_THAT(message, testing::StartsWith(field + " must be"));
+  EXPECT_THAT(message, test::HasSubstr("got"));
   EXPECT_THROW(Solver{s}, std::invalid_argument);
 }
 
@@ -775,23 +771,17 @@ TEST(de_Validation, RejectsBadSettings) {
   expectInvalidSetting([](Settings& s) { s.initialization = static_cast<Initialization>(9); },
                        "initialization");
 
-  try {
-    Settings s;
-    s.population_size = 3;
-    s.validate();
-  } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "population_size must be >= 5, got 3");
-  }
+  Settings small;
+  small.population_size = 3;
+  EXPECT_EQ(test::errorOf<std::invalid_argument>([&] { small.validate(); }),
+            "population_size must be >= 5, got 3");
 }
 
 void expectInvalidProblem(const Problem& problem, const std::string& needle,
                           const Eigen::MatrixXd& warm_start = Eigen::MatrixXd()) {
-  try {
-    Solver(quickSettings()).solve(problem, warm_start);
-    ADD_FAILURE() << "no error for " << needle;
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-  }
+  EXPECT_THAT(test::errorOf<std::invalid_argument>(
+                  [&] { return Solver(quickSettings()).solve(problem, warm_start); }),
+              test::HasSubstr(needle));
 }
 
 TEST(de_Validation, RejectsBadBoundsAndWarmStarts) {

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <map>
 
+#include "error_of.h"
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
@@ -596,7 +597,7 @@ TEST(JumpPlanner, UnreachableTargetNamesTheBindingConstraints) {
   EXPECT_FALSE(r.evaluation.feasible);
   EXPECT_TRUE(r.evaluation.constraints_ok) << r.summary;
   EXPECT_FALSE(r.binding.empty());
-  EXPECT_NE(r.summary.find("binding"), std::string::npos) << r.summary;
+  EXPECT_THAT(r.summary, test::HasSubstr("binding")) << r.summary;
   EXPECT_LT(r.evaluation.predicted.apex.state.z, sc.task.target.height);
   EXPECT_GT(r.evaluation.predicted.apex.state.z, sc.task.target.height - 0.1);
 }
@@ -786,12 +787,9 @@ TEST(JumpPlanner, BadArgumentsGiveClearErrors) {
   const JumpPlanner planner = makePlanner();
   Scenario sc = makePreset(planner, "vertical");
   auto expectError = [&](const Scenario& s, const std::string& needle) {
-    try {
-      (void)planner.plan(s.task, s.initial);
-      ADD_FAILURE() << "accepted: " << needle;
-    } catch (const std::invalid_argument& e) {
-      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
-    }
+    EXPECT_THAT(
+        test::errorOf<std::invalid_argument>([&] { return planner.plan(s.task, s.initial); }),
+        test::HasSubstr(needle));
   };
   Scenario bad = sc;
   bad.initial.v0 = std::nan("");
@@ -824,12 +822,9 @@ TEST(PlannerSettings, YamlFailsOnUnknownKeysAndNamesThem) {
   EXPECT_EQ(s.de.seed, 9u);
   EXPECT_EQ(s.de.strategy, de::Strategy::Rand1Bin);
   EXPECT_DOUBLE_EQ(s.t1_s[1], 0.3);
-  try {
-    (void)PlannerSettings::fromYamlString("physics: {fricton_mu: 0.5}\n");
-    FAIL();
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("physics.fricton_mu"), std::string::npos) << e.what();
-  }
+  EXPECT_THAT(test::errorOf<std::runtime_error>(
+                  [&] { return PlannerSettings::fromYamlString("physics: {fricton_mu: 0.5}\n"); }),
+              test::HasSubstr("physics.fricton_mu"));
   EXPECT_THROW((void)PlannerSettings::fromYamlString("de: {strategy: best9}\n"),
                std::runtime_error);
   EXPECT_THROW((void)PlannerSettings::fromYamlString("physics: {friction_mu: -1}\n"),
@@ -841,13 +836,11 @@ TEST(PlannerSettings, ContactChainIsReadAndCheckedByName) {
   EXPECT_EQ(
       PlannerSettings::fromYamlString("sampling: {contact_chain: from_takeoff}\n").contact_chain,
       ContactChain::FromTakeoff);
-  try {
-    (void)PlannerSettings::fromYamlString("sampling: {contact_chain: backwards}\n");
-    FAIL();
-  } catch (const std::runtime_error& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("sampling.contact_chain"), std::string::npos) << what;
-    EXPECT_NE(what.find("from_start, from_takeoff"), std::string::npos) << what;
+  {
+    const std::string error = test::errorOf<std::runtime_error>(
+        [] { return PlannerSettings::fromYamlString("sampling: {contact_chain: backwards}\n"); });
+    EXPECT_THAT(error, test::HasSubstr("sampling.contact_chain"));
+    EXPECT_THAT(error, test::HasSubstr("from_start, from_takeoff"));
   }
   PlannerSettings s;
   s.contact_chain = static_cast<ContactChain>(5);
@@ -883,7 +876,7 @@ TEST(JumpModel, TakeoffChainIsExactAtTheTakeoffInstant) {
   // The one-step CoM-offset iteration converges to the exact posture as the samples get denser.
   // Chained from the converged take-off posture (from_takeoff), the take-off instant is exact
   // at any density; chained from t = 0 (from_start), it carries the chain's error, largest
-  // there (the legs extend fastest).
+  // there (the legs extend fastest). A backflip always chains from the take-off.
   const JumpPlanner planner = makePlanner();
   for (const std::string name : {"forward_hw", "backflip"}) {
     const Scenario sc = makePreset(planner, name);
@@ -894,6 +887,13 @@ TEST(JumpModel, TakeoffChainIsExactAtTheTakeoffInstant) {
     const TakeoffBlock fine = takeoffBlock(sc, u, ContactChain::FromStart, 960, 640);
     const TakeoffBlock start = takeoffBlock(sc, u, ContactChain::FromStart, 24, 16);
     const TakeoffBlock takeoff = takeoffBlock(sc, u, ContactChain::FromTakeoff, 24, 16);
+    if (name == "backflip") {
+      // A backflip chains from the take-off whatever the setting (docs/backflip.md, "Session
+      // 13": from the start its lift-off sample missed the posture its flight starts from).
+      EXPECT_EQ(start.margins, takeoff.margins);
+      EXPECT_EQ(start.energy, takeoff.energy);
+      continue;
+    }
     ASSERT_EQ(fine.margins.size(), start.margins.size()) << name;
     ASSERT_EQ(fine.margins.size(), takeoff.margins.size()) << name;
     double err_start = 0.0, err_takeoff = 0.0;
@@ -915,13 +915,11 @@ TEST(PlannerSettings, PolishSolverIsReadAndCheckedByName) {
             PolishSolver::Ipopt);
   EXPECT_EQ(PlannerSettings::fromYamlString("polish: {solver: sqp}\n").polish_solver,
             PolishSolver::Sqp);
-  try {
-    (void)PlannerSettings::fromYamlString("polish: {solver: snopt}\n");
-    FAIL();
-  } catch (const std::runtime_error& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("polish.solver"), std::string::npos) << what;
-    EXPECT_NE(what.find("ipopt, sqp"), std::string::npos) << what;
+  {
+    const std::string error = test::errorOf<std::runtime_error>(
+        [] { return PlannerSettings::fromYamlString("polish: {solver: snopt}\n"); });
+    EXPECT_THAT(error, test::HasSubstr("polish.solver"));
+    EXPECT_THAT(error, test::HasSubstr("ipopt, sqp"));
   }
   PlannerSettings s;
   s.polish_solver = static_cast<PolishSolver>(7);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <string>
 
+#include "error_of.h"
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
@@ -26,13 +27,11 @@ TEST(PlannerSettings, ActuatorModelIsReadAndCheckedByName) {
   EXPECT_EQ(PlannerSettings::fromYamlString("physics: {actuator_model: constant_torque}\n")
                 .actuator_model,
             ActuatorModel::ConstantTorque);
-  try {
-    (void)PlannerSettings::fromYamlString("physics: {actuator_model: none}\n");
-    FAIL();
-  } catch (const std::runtime_error& e) {
-    const std::string what = e.what();
-    EXPECT_NE(what.find("physics.actuator_model"), std::string::npos) << what;
-    EXPECT_NE(what.find("constant_torque, envelope"), std::string::npos) << what;
+  {
+    const std::string error = test::errorOf<std::runtime_error>(
+        [] { return PlannerSettings::fromYamlString("physics: {actuator_model: none}\n"); });
+    EXPECT_THAT(error, test::HasSubstr("physics.actuator_model"));
+    EXPECT_THAT(error, test::HasSubstr("constant_torque, envelope"));
   }
   PlannerSettings s;
   s.actuator_model = static_cast<ActuatorModel>(7);
@@ -77,12 +76,8 @@ TEST(JumpTask, APlatformIsAnObstacleTheTouchdownIsOver) {
   EXPECT_FALSE(makePreset(planner, "vertical").task.landsOnObstacle());
   JumpTask low = makePreset(planner, "platform").task;
   low.target.height = 0.2;  // below the 0.25 m top
-  try {
-    low.validate();
-    FAIL() << "accepted a touchdown below the platform's top";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("task.target.height"), std::string::npos) << e.what();
-  }
+  EXPECT_THAT(test::errorOf<std::invalid_argument>([&] { return low.validate(); }),
+              test::HasSubstr("task.target.height"));
 }
 
 class PlatformPlan : public ::testing::Test {

@@ -127,6 +127,7 @@ TEST(SettingsHash, StableAndSensitiveToEveryKindOfSetting) {
   EXPECT_TRUE(changed([](auto& s) { s.obstacle_margin_m = 0.05; }));
   EXPECT_TRUE(changed([](auto& s) { s.platform_margin_m = 0.03; }));  // no probe lands on a box
   EXPECT_TRUE(changed([](auto& s) { s.tuck_end_fraction = 0.15; }));
+  EXPECT_TRUE(changed([](auto& s) { s.wall_extend_start_fraction = 0.65; }));
   // The solver's settings, field by field.
   EXPECT_TRUE(changed([](auto& s) { s.de.population_size = 33; }));
   EXPECT_TRUE(changed([](auto& s) { s.de.strategy = planner::de::Strategy::Rand1Bin; }));

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <thread>
 
+#include "error_of.h"
 #include "planner_client/planner_client.h"
 #include "redis_test_util.h"
 #include "server/redis_store.h"
@@ -36,12 +37,7 @@ std::string readFile(const std::filesystem::path& p) {
 }
 
 std::string errorOf(const std::string& yaml) {
-  try {
-    (void)ServerConfig::fromYamlString(yaml, "test");
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
+  return wj::test::errorOf([&] { return ServerConfig::fromYamlString(yaml, "test"); });
 }
 
 ServerConfig redisConfig(int port, const std::string& prefix) {
@@ -96,32 +92,28 @@ TEST(RedisConfig, RedisKeysRoundTripAndAreStrict) {
     EXPECT_NE(at, std::string::npos) << from;
     return y.replace(at, from.size(), to);
   };
-  EXPECT_NE(errorOf(replaced("    db: 3\n", "    db: 3\n    bogus: 1\n"))
-                .find("unknown key 'cache.redis.bogus'"),
-            std::string::npos);
-  EXPECT_NE(errorOf(replaced("    db: 3\n", "")).find("missing key 'cache.redis.db'"),
-            std::string::npos);
-  EXPECT_NE(errorOf(replaced("  backend: redis", "  backend: memcached"))
-                .find("'memcached' is not one of sqlite, redis"),
-            std::string::npos);
+  EXPECT_THAT(errorOf(replaced("    db: 3\n", "    db: 3\n    bogus: 1\n")),
+              wj::test::HasSubstr("unknown key 'cache.redis.bogus'"));
+  EXPECT_THAT(errorOf(replaced("    db: 3\n", "")),
+              wj::test::HasSubstr("missing key 'cache.redis.db'"));
+  EXPECT_THAT(errorOf(replaced("  backend: redis", "  backend: memcached")),
+              wj::test::HasSubstr("'memcached' is not one of sqlite, redis"));
   const std::string port = errorOf(replaced("    port: 6390", "    port: 0"));
-  EXPECT_NE(port.find("cache.redis.port must be in [1, 65535]"), std::string::npos) << port;
-  EXPECT_NE(errorOf(replaced("    db: 3", "    db: 16")).find("cache.redis.db must be in [0, 15]"),
-            std::string::npos);
-  EXPECT_NE(errorOf(replaced("    command_timeout_ms: 200", "    command_timeout_ms: 0"))
-                .find("cache.redis.command_timeout_ms"),
-            std::string::npos);
-  EXPECT_NE(errorOf(replaced("    reconnect_max_ms: 400", "    reconnect_max_ms: 10"))
-                .find("cache.redis.reconnect_max_ms must be in [cache.redis.reconnect_min_ms"),
-            std::string::npos);
-  EXPECT_NE(errorOf(replaced("  path: \"\"", "  path: \"/tmp/x.sqlite\""))
-                .find("cache.path must be \"\" with cache.backend redis"),
-            std::string::npos);
+  EXPECT_THAT(port, wj::test::HasSubstr("cache.redis.port must be in [1, 65535]")) << port;
+  EXPECT_THAT(errorOf(replaced("    db: 3", "    db: 16")),
+              wj::test::HasSubstr("cache.redis.db must be in [0, 15]"));
+  EXPECT_THAT(errorOf(replaced("    command_timeout_ms: 200", "    command_timeout_ms: 0")),
+              wj::test::HasSubstr("cache.redis.command_timeout_ms"));
+  EXPECT_THAT(
+      errorOf(replaced("    reconnect_max_ms: 400", "    reconnect_max_ms: 10")),
+      wj::test::HasSubstr("cache.redis.reconnect_max_ms must be in [cache.redis.reconnect_min_ms"));
+  EXPECT_THAT(errorOf(replaced("  path: \"\"", "  path: \"/tmp/x.sqlite\"")),
+              wj::test::HasSubstr("cache.path must be \"\" with cache.backend redis"));
   // backend redis needs its section.
   std::string no_section = yaml;
   no_section.erase(no_section.find("  redis:\n"),
                    no_section.find("warm_cache:") - no_section.find("  redis:\n"));
-  EXPECT_NE(errorOf(no_section).find("missing key 'cache.redis'"), std::string::npos);
+  EXPECT_THAT(errorOf(no_section), wj::test::HasSubstr("missing key 'cache.redis'"));
 }
 
 // ---------------------------------------------------------------------------------------------

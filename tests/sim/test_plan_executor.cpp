@@ -10,6 +10,7 @@
 
 #include <Eigen/Geometry>
 
+#include "error_of.h"
 #include "sim/plan_executor.h"
 
 namespace wj::sim {
@@ -112,8 +113,50 @@ TEST(PlanExecutor, NegativePitchGainsAreRejectedByName) {
     if (std::string(field) == "hind_pitch_kp") s.hind_pitch_kp = -1.0;
     if (std::string(field) == "hind_pitch_kd") s.hind_pitch_kd = -1.0;
     if (std::string(field) == "hind_pitch_max_nm") s.hind_pitch_max_nm = std::nan("");
+    EXPECT_THAT(
+        test::errorOf<std::invalid_argument>([&] { return PlanExecutor(robot, plan, s, 9.81); }),
+        test::HasSubstr(field));
+  }
+}
+
+// A two-step plan (the backflip) runs its legs with its own take-off and flight gains and
+// lands with its own wheel deceleration; any other plan with the common ones. Out of range:
+// rejected by name.
+TEST(PlanExecutor, TwoStepPlansRunWithTheirOwnGains) {
+  const model::RobotModel robot = loadRobot();
+  ExecutorSettings s = gains(0.0, 0.0, 0.0);
+  s.takeoff_kp = 150.0;
+  s.takeoff_kd = 3.0;
+  s.flight_kp = 80.0;
+  s.flight_kd = 2.0;
+  s.two_step_takeoff_kp = 600.0;
+  s.two_step_takeoff_kd = 8.0;
+  s.two_step_flight_kp = 400.0;
+  s.two_step_flight_kd = 7.0;
+  const int hfe = jointIndex(Leg::LH, JointKind::HFE);
+  for (const bool two_step : {true, false}) {
+    const planner::JumpPlan plan = makePlan(two_step ? 0.0 : 2.0);
+    PlanExecutor ex(robot, plan, s, 9.81);
+    model::JointCommands c{};
+    ex.update(0.0, pitched(0.0, 0.0), true, c);
+    ex.update(0.05, pitched(0.0, 0.0), true, c);
+    EXPECT_DOUBLE_EQ(c[hfe].kp, two_step ? 600.0 : 150.0);
+    EXPECT_DOUBLE_EQ(c[hfe].kd, two_step ? 8.0 : 3.0);
+    ex.update(0.31, pitched(0.0, 0.0), false, c);  // past t2: flight
+    EXPECT_DOUBLE_EQ(c[hfe].kp, two_step ? 400.0 : 80.0);
+    EXPECT_DOUBLE_EQ(c[hfe].kd, two_step ? 7.0 : 2.0);
+  }
+  for (const char* field : {"two_step_takeoff_kp", "two_step_takeoff_kd", "two_step_flight_kp",
+                            "two_step_flight_kd", "two_step_landing_wheel_decel_m_s2"}) {
+    ExecutorSettings bad = s;
+    const std::string f = field;
+    if (f == "two_step_takeoff_kp") bad.two_step_takeoff_kp = -1.0;
+    if (f == "two_step_takeoff_kd") bad.two_step_takeoff_kd = -1.0;
+    if (f == "two_step_flight_kp") bad.two_step_flight_kp = std::nan("");
+    if (f == "two_step_flight_kd") bad.two_step_flight_kd = -1.0;
+    if (f == "two_step_landing_wheel_decel_m_s2") bad.two_step_landing_wheel_decel_m_s2 = -1.0;
     try {
-      PlanExecutor ex(robot, plan, s, 9.81);
+      PlanExecutor ex(robot, makePlan(0.0), bad, 9.81);
       ADD_FAILURE() << field << " accepted";
     } catch (const std::invalid_argument& e) {
       EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();

@@ -7,6 +7,7 @@
 #include <sstream>
 #include <string>
 
+#include "error_of.h"
 #include "sim/settings.h"
 
 namespace wj::sim {
@@ -76,26 +77,21 @@ TEST(SimSettings, ParsesEnumsAndBoxes) {
 TEST(SimSettings, RejectsUnknownMissingAndBadKeys) {
   const std::string yaml = shippedYaml();
   const auto message = [](const std::string& text) {
-    try {
-      parseSimSettings(text, "test.yaml");
-    } catch (const std::runtime_error& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return test::errorOf<std::runtime_error>([&] { return parseSimSettings(text, "test.yaml"); });
   };
   // A misspelled key is unknown (and the real one missing): never silently defaulted.
-  EXPECT_NE(message(replace(yaml, "stiffness_pa:", "stifness_pa:")).find("stifness_pa"),
-            std::string::npos);
-  EXPECT_NE(message(replace(yaml, "  seed: 1\n", "")).find("missing key 'noise.seed'"),
-            std::string::npos);
-  EXPECT_NE(message(replace(yaml, "wheel_shape: sphere", "wheel_shape: torus")).find("torus"),
-            std::string::npos);
-  EXPECT_NE(message(replace(yaml, "accuracy: 0.02", "accuracy: -1")).find("accuracy"),
-            std::string::npos);
-  EXPECT_NE(message(replace(yaml, "max_step_s: 0.001", "max_step_s: 0.01")).find("max_step_s"),
-            std::string::npos);
-  EXPECT_NE(message(yaml + "extra: 1\n").find("unknown key 'extra'"), std::string::npos);
-  EXPECT_NE(message("[1, 2]").find("expected a map"), std::string::npos);
+  EXPECT_THAT(message(replace(yaml, "stiffness_pa:", "stifness_pa:")),
+              test::HasSubstr("stifness_pa"));
+  EXPECT_THAT(message(replace(yaml, "  seed: 1\n", "")),
+              test::HasSubstr("missing key 'noise.seed'"));
+  EXPECT_THAT(message(replace(yaml, "wheel_shape: sphere", "wheel_shape: torus")),
+              test::HasSubstr("torus"));
+  EXPECT_THAT(message(replace(yaml, "accuracy: 0.02", "accuracy: -1")),
+              test::HasSubstr("accuracy"));
+  EXPECT_THAT(message(replace(yaml, "max_step_s: 0.001", "max_step_s: 0.01")),
+              test::HasSubstr("max_step_s"));
+  EXPECT_THAT(message(yaml + "extra: 1\n"), test::HasSubstr("unknown key 'extra'"));
+  EXPECT_THAT(message("[1, 2]"), test::HasSubstr("expected a map"));
 }
 
 TEST(Terrain, HeightAndFactories) {

@@ -42,9 +42,12 @@ int Recording::frameAt(double t) const {
 }
 
 int Recording::apexFrame() const {
-  const int first = std::isfinite(jump_start_t) ? frameAt(jump_start_t) : 0;
-  const int last =
-      std::isfinite(touchdown_t) ? frameAt(touchdown_t) : static_cast<int>(frames.size()) - 1;
+  return apexFrame(jump_start_t, touchdown_t);
+}
+
+int Recording::apexFrame(double from_t, double to_t) const {
+  const int first = std::isfinite(from_t) ? frameAt(from_t) : 0;
+  const int last = std::isfinite(to_t) ? frameAt(to_t) : static_cast<int>(frames.size()) - 1;
   int best = first;
   for (int i = first; i <= last; ++i)
     if (frames[i].p_WC.z() > frames[best].p_WC.z()) best = i;

@@ -139,12 +139,7 @@ StripLayout planRow(const model::RobotModel& robot, const Recording& rec, const 
     if (layout.frames.empty() || layout.frames.back() != i) layout.frames.push_back(i);
   }
   // The highest CoM between take-off and touchdown (the whole row without a touchdown).
-  const int first = rec.frameAt(a);
-  const int last = std::isfinite(jump.touchdown_t) ? rec.frameAt(jump.touchdown_t)
-                                                   : static_cast<int>(rec.frames.size()) - 1;
-  layout.apex = first;
-  for (int i = first; i <= last; ++i)
-    if (rec.frames[i].p_WC.z() > rec.frames[layout.apex].p_WC.z()) layout.apex = i;
+  layout.apex = rec.apexFrame(jump.start_t, jump.touchdown_t);
   // A jump in place: every snapshot on top of the others. Spread them like a film strip.
   const double travel =
       rec.frames[layout.frames.back()].p_WB.x() - rec.frames[layout.frames.front()].p_WB.x();

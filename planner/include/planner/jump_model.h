@@ -104,6 +104,9 @@ struct JumpModelConstants {
   Eigen::Vector2d c_land = Eigen::Vector2d::Zero();     ///< ... and at the landing posture
   Eigen::Vector2d box_half = Eigen::Vector2d::Zero();   ///< half box size x, z
   Eigen::Vector2d q_landing = Eigen::Vector2d::Zero();  ///< (HFE, KFE) landing posture
+  /// Fraction of the flight at which the legs start extending to the landing posture:
+  /// settings.wall_extend_start_fraction over a wall, extend_start_fraction otherwise.
+  double extend_start = 0.0;
   /// The legs' and wheels' momentum at t = 0 beyond the rigid body's (E(0), docs/planner.md,
   /// "Stance momentum") [kg m^2/s].
   double e0 = 0.0;

@@ -103,6 +103,12 @@ struct PlannerSettings {
   double tuck_end_fraction = 0.25;      ///< fraction of the flight by which the legs are tucked
   double extend_start_fraction = 0.55;  ///< ... at which they start extending to landing
   double extend_end_fraction = 0.9;     ///< ... by which they are in the landing posture
+  /// extend_start_fraction of a jump over a wall (an obstacle it clears, not one it lands on):
+  /// the hind wheels pass the wall's far edge while the legs extend towards the ground. The
+  /// robot client's service starts later (config/planner_settings.yaml; docs/robust.md, "The
+  /// nominal touchdown pitch"); a platform's landing and the jumps without an obstacle keep
+  /// extend_start_fraction.
+  double wall_extend_start_fraction = 0.55;
 
   // --- discretisation
   int samples_phase1 = 24;     ///< constraint samples on [0, t1]

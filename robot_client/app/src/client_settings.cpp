@@ -184,6 +184,11 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
   e.hind_pitch_kd = m.number("hind_pitch_kd");
   e.hind_pitch_max_nm = m.number("hind_pitch_max_nm");
   e.lifted_pair_margin_rad = m.number("lifted_pair_margin_rad");
+  e.two_step_takeoff_kp = m.number("two_step_takeoff_kp");
+  e.two_step_takeoff_kd = m.number("two_step_takeoff_kd");
+  e.two_step_flight_kp = m.number("two_step_flight_kp");
+  e.two_step_flight_kd = m.number("two_step_flight_kd");
+  e.two_step_landing_wheel_decel_m_s2 = m.number("two_step_landing_wheel_decel_m_s2");
   m.finish();
   return e;
 }

@@ -46,6 +46,18 @@ struct ExecutorSettings {
   /// load them there: tracking with the take-off gains lagged by up to 0.09 rad, 0.02-0.04 rad
   /// past the knee's range (docs/backflip.md, "Session 12").
   double lifted_pair_margin_rad = 0.12;
+  /// A two-step plan's (the backflip's) leg gains in take-off and in flight [Nm/rad, Nm s/rad],
+  /// in place of takeoff_kp/kd and flight_kp/kd. With those, Simbody's hind legs ran 0.05-0.1
+  /// rad ahead of the push, which took 12-16 Nm off the hips' and knees' planned torques in its
+  /// last 50 ms (lift-off 0.4 m/s slow upward, the flight 75 ms short), and in flight the hips
+  /// lagged the brake and tuck by up to 0.7 rad (docs/backflip.md, "Session 13").
+  double two_step_takeoff_kp = 600.0;
+  double two_step_takeoff_kd = 8.0;   ///< see two_step_takeoff_kp
+  double two_step_flight_kp = 400.0;  ///< see two_step_takeoff_kp
+  double two_step_flight_kd = 8.0;    ///< see two_step_takeoff_kp
+  /// ... and its landing's wheel deceleration [m/s^2]: a flip lands rolling backward at 0.8-1.5
+  /// m/s, and braking that at 2 m/s^2 raised it onto its hind wheels (0.46 rad nose-up).
+  double two_step_landing_wheel_decel_m_s2 = 1.0;
   /// Leg stiffness of the landing posture [Nm/rad]: the robot client's (config/
   /// robot_client.yaml); 60 let the robot tip onto its front wheels while braking from 3 m/s.
   double landing_kp = 120.0;
@@ -167,7 +179,10 @@ class PlanExecutor {
   double wheel_speed_ = 0.0;  // wheel joint speed reference after take-off [rad/s]
   JointVector q_flight_start_ = JointVector::Zero();   // measured at t2
   JointVector qd_flight_start_ = JointVector::Zero();  // measured at t2
-  bool hind_only_ = false;   // two-step plan: the front legs carry no torque in [t1, t2)
+  bool hind_only_ = false;  // two-step plan: the front legs carry no torque in [t1, t2)
+  // The leg gains and landing deceleration this plan runs with (a two-step plan's own).
+  double takeoff_kp_ = 0.0, takeoff_kd_ = 0.0, flight_kp_ = 0.0, flight_kd_ = 0.0;
+  double landing_decel_ = 0.0;
   bool have_pitch_ = false;  // pitch0_ and pitch_ measured
   double pitch0_ = 0.0;      // body pitch at t = 0 (the plan's pitch is relative to it)
   double pitch_ = 0.0;       // unwrapped body pitch [rad]

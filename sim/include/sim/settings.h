@@ -28,6 +28,10 @@ enum class IntegratorKind : std::uint8_t {
   SemiExplicitEuler2,  ///< step doubling on semi-explicit Euler, error controlled, 1st order
   RungeKutta3,         ///< 3rd order Runge-Kutta with embedded error estimate
   RungeKuttaMerson,    ///< 4th order Runge-Kutta-Merson with embedded error estimate
+  /// SemiExplicitEuler through Simbody's own SemiExplicitEulerIntegrator even where the
+  /// project's stepper applies (the sagittal model): the same trajectory bit for bit at about
+  /// a third more work per step; the stepper's reference (docs/sim.md, "Integrator").
+  SemiExplicitEulerSimbody,
 };
 
 /// When the drives evaluate their PD law.

@@ -198,6 +198,10 @@ void SimRobot::Impl::integrateTo(double t) {
     // stepTo() may return before t_end: right after initialize() it returns at once with
     // StartOfSimulation, without advancing (the first period after reset() used to be lost and
     // the next one integrated twice). Step until the interval is really covered.
+    if (stepper) {
+      if (stepper->getTime() < t_end - 1e-12) stepper->stepTo(t_end);
+      return;
+    }
     for (int attempt = 0; integ->getTime() < t_end - 1e-12; ++attempt) {
       if (attempt == 100)
         throw std::runtime_error("the integrator did not reach the end of the period");
@@ -215,7 +219,7 @@ void SimRobot::Impl::integrateTo(double t) {
   for (;;) {
     // Commands whose time has come act from now on.
     bool changed = false;
-    while (pending_count > 0 && pending[pending_head].t_apply <= integ->getTime() + 1e-9) {
+    while (pending_count > 0 && pending[pending_head].t_apply <= time() + 1e-9) {
       commands = pending[pending_head].commands;
       pending_head = (pending_head + 1) % pending.size();
       --pending_count;
@@ -280,7 +284,7 @@ void SimRobot::reset(const RobotPlacement& placement) {
   m.step_count = 0;
   m.rng.seed(m.settings.noise.seed);
   m.makeIntegrator();
-  m.integ->initialize(s);
+  m.initializeIntegrator(s);
   m.system.realize(m.state(), SimTK::Stage::Acceleration);
   m.reset_a_GB = m.mobods[0].getBodyOriginAcceleration(m.state());
   m.have_previous_velocity = false;
@@ -407,8 +411,11 @@ double SimRobot::calcMechanicalEnergy() const {
 }
 
 IntegratorStats SimRobot::integratorStats() const {
-  return {impl_->integ->getNumStepsTaken(), impl_->integ->getNumStepsAttempted(),
-          impl_->integ->getNumRealizations()};
+  const Impl& m = *impl_;
+  if (m.stepper)
+    return {m.stepper->stepsTaken(), m.stepper->stepsTaken(), m.stepper->realizations()};
+  return {m.integ->getNumStepsTaken(), m.integ->getNumStepsAttempted(),
+          m.integ->getNumRealizations()};
 }
 
 const SimSettings& SimRobot::settings() const {

@@ -66,8 +66,9 @@ SimRobot::Impl::Impl(const model::RobotModel& m, const SimSettings& s, SimModel 
   makeDrives();
   realizeAndCache();
   classifySurfaces();
+  euler_stepper_applies = detail::EulerStepper::applies(system, default_state);
   makeIntegrator();
-  integ->initialize(default_state);
+  initializeIntegrator(default_state);
 }
 
 void SimRobot::Impl::addGround(const SimTK::ContactMaterial& material, bool ellipsoid_wheels) {
@@ -209,8 +210,18 @@ void SimRobot::Impl::classifySurfaces() {
 //==============================================================================================
 void SimRobot::Impl::makeIntegrator() {
   const IntegratorSettings& is = settings.integrator;
+  integ.reset();
+  stepper.reset();
+  if (is.kind == IntegratorKind::SemiExplicitEuler && euler_stepper_applies) {
+    // Sagittal: a planar base and pins, whose qdot is their u (full: the free base's
+    // quaternion, which EulerStepper::applies() refuses anyway).
+    stepper =
+        std::make_unique<detail::EulerStepper>(system, is.max_step_s, kind == SimModel::Sagittal);
+    return;
+  }
   switch (is.kind) {
     case IntegratorKind::SemiExplicitEuler:
+    case IntegratorKind::SemiExplicitEulerSimbody:
       integ = std::make_unique<SimTK::SemiExplicitEulerIntegrator>(system, is.max_step_s);
       break;
     case IntegratorKind::SemiExplicitEuler2:
@@ -223,12 +234,20 @@ void SimRobot::Impl::makeIntegrator() {
       integ = std::make_unique<SimTK::RungeKuttaMersonIntegrator>(system);
       break;
   }
-  if (is.kind != IntegratorKind::SemiExplicitEuler) {
+  if (is.kind != IntegratorKind::SemiExplicitEuler &&
+      is.kind != IntegratorKind::SemiExplicitEulerSimbody) {
     integ->setAccuracy(is.accuracy);
     integ->setMaximumStepSize(is.max_step_s);
   }
   // Every control instant must be a step boundary: the commands change there.
   integ->setAllowInterpolation(false);
+}
+
+void SimRobot::Impl::initializeIntegrator(const SimTK::State& s) {
+  if (stepper)
+    stepper->initialize(s);
+  else
+    integ->initialize(s);
 }
 
 }  // namespace wj::sim

@@ -13,6 +13,7 @@
 
 #include "../contact_law.h"
 #include "collision_spheres.h"
+#include "euler_stepper.h"
 #include "ground_contact.h"
 #include "sim/sim_robot.h"
 #include "simbody_conversions.h"
@@ -79,13 +80,19 @@ struct SimRobot::Impl {
   template <class F>
   void forEachGroundContact(const SimTK::State& s, F&& f) const;
   double calcClearance(const SimTK::State& s) const;
-  const SimTK::State& state() const { return integ->getState(); }
+  const SimTK::State& state() const { return stepper ? stepper->getState() : integ->getState(); }
+  double time() const { return state().getTime(); }
   // The commands live outside the Simbody state: after changing them, drop the cached forces
   // and accelerations so that the integrator's next step starts from fresh derivatives.
   void invalidateForces() {
-    integ->updAdvancedState().invalidateAllCacheAtOrAbove(SimTK::Stage::Dynamics);
+    SimTK::State& s = stepper ? stepper->updState() : integ->updAdvancedState();
+    s.invalidateAllCacheAtOrAbove(SimTK::Stage::Dynamics);
   }
+  // The integrator of the settings; the semi-explicit Euler method as EulerStepper when it
+  // applies to this system (euler_stepper.h), else as Simbody's integrator.
   void makeIntegrator();
+  // Starts the integrator (or the stepper) from `s`.
+  void initializeIntegrator(const SimTK::State& s);
 
   model::RobotModel model;
   SimSettings settings;
@@ -144,7 +151,9 @@ struct SimRobot::Impl {
   void integrateTo(double t);
 
   SimTK::State default_state;
-  std::unique_ptr<SimTK::Integrator> integ;
+  std::unique_ptr<SimTK::Integrator> integ;       // null when `stepper` steps
+  std::unique_ptr<detail::EulerStepper> stepper;  // null when `integ` steps
+  bool euler_stepper_applies = false;             // EulerStepper::applies() to this system
   long step_count = 0;
   std::mt19937_64 rng;
   // IMU: base origin velocity at the start of the last period, or the exact acceleration

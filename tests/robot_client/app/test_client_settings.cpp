@@ -4,6 +4,7 @@
 #include <sstream>
 #include <string>
 
+#include "error_of.h"
 #include "robot_client/client_settings.h"
 
 namespace wj::robot_client {
@@ -33,47 +34,29 @@ TEST(ClientSettings, ShippedConfigParsesAndValidates) {
   EXPECT_EQ(s.scenario("forward").after_landing, AfterLanding::RollOn);
   EXPECT_DOUBLE_EQ(s.scenario("forward").roll_on_speed_m_s, 3.0);
   EXPECT_EQ(s.scenario("vertical").after_landing, AfterLanding::Stop);
-  try {
-    (void)s.scenario("moonwalk");
-    FAIL() << "accepted an unknown scenario";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("'moonwalk' is not one of forward, vertical"),
-              std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(test::errorOf<std::invalid_argument>([&] { return s.scenario("moonwalk"); }),
+              test::HasSubstr("'moonwalk' is not one of forward, vertical"));
 }
 
 TEST(ClientSettings, UnknownKeyIsNamed) {
   const std::string text = replace(shippedConfig(), "  cpu: -1 ", "  cpu: -1\n  cpus: 2 ");
-  try {
-    (void)parseClientSettings(text, "x.yaml");
-    FAIL() << "accepted an unknown key";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("unknown key 'loop.cpus'"), std::string::npos) << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, "x.yaml"); }),
+      test::HasSubstr("unknown key 'loop.cpus'"));
 }
 
 TEST(ClientSettings, MissingKeyIsNamed) {
   const std::string text = replace(shippedConfig(), "  damping_kd: 1.5", "");
-  try {
-    (void)parseClientSettings(text, "x.yaml");
-    FAIL() << "accepted a missing key";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("missing key 'safety.damping_kd'"), std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, "x.yaml"); }),
+      test::HasSubstr("missing key 'safety.damping_kd'"));
 }
 
 TEST(ClientSettings, OutOfRangeValueNamesFieldAndRange) {
   const std::string text = replace(shippedConfig(), "period_s: 0.001", "period_s: 0.5");
-  try {
-    (void)parseClientSettings(text, "x.yaml");
-    FAIL() << "accepted a 0.5 s control period";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("loop.period_s must be in [0.0001, 0.01]"),
-              std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, "x.yaml"); }),
+      test::HasSubstr("loop.period_s must be in [0.0001, 0.01]"));
 }
 
 TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
@@ -93,23 +76,16 @@ TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
   EXPECT_EQ(s.scenarios.back().name, "hop");
   EXPECT_EQ(s.scenario("hop").event, planner::TargetEvent::Apex);
   const std::string bad = replace(hop, "stand_s: 1.0", "stand_s: -1.0");
-  try {
-    (void)parseClientSettings(config + bad, "x.yaml");
-    FAIL() << "accepted a negative stand_s";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("scenarios.hop.stand_s"), std::string::npos) << e.what();
-  }
+  EXPECT_THAT(test::errorOf<std::invalid_argument>(
+                  [&] { return parseClientSettings(config + bad, "x.yaml"); }),
+              test::HasSubstr("scenarios.hop.stand_s"));
 }
 
 TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
   const std::string text = replace(shippedConfig(), "mode: roll_on", "mode: hover");
-  try {
-    (void)parseClientSettings(text, "x.yaml");
-    FAIL() << "accepted an unknown after-landing mode";
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("'hover' is not one of stop, roll_on"), std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, "x.yaml"); }),
+      test::HasSubstr("'hover' is not one of stop, roll_on"));
   const std::string fast = replace(shippedConfig(), "speed_m_s: 3.0\n", "speed_m_s: 9.0\n");
   EXPECT_THROW((void)parseClientSettings(fast, "x.yaml"), std::invalid_argument);
 }
@@ -120,21 +96,14 @@ TEST(ClientSettings, PlanRetriesAndTheLandingFeedbacksAreReadAndBounded) {
   EXPECT_DOUBLE_EQ(s.executor.touchdown_pitch_placement, 1.0);
   EXPECT_DOUBLE_EQ(s.executor.landing_pitch_limit_rad, 0.4);
   const std::string many = replace(shippedConfig(), "  retries: 4 ", "  retries: 9 ");
-  try {
-    (void)parseClientSettings(many, "x.yaml");
-    FAIL() << "accepted 9 retries";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("planner.retries"), std::string::npos) << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(many, "x.yaml"); }),
+      test::HasSubstr("planner.retries"));
   const std::string half =
       replace(shippedConfig(), "touchdown_pitch_placement: 1.0", "touchdown_pitch_placement: 1.5");
-  try {
-    (void)parseClientSettings(half, "x.yaml");
-    FAIL() << "accepted a placement fraction of 1.5";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("touchdown_pitch_placement"), std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(half, "x.yaml"); }),
+      test::HasSubstr("touchdown_pitch_placement"));
 }
 
 TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
@@ -146,14 +115,9 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   EXPECT_FALSE(s.scenario("forward").accept_closest_approach);
   // Landing on top of it needs a CoM height above its top.
   const std::string low = replace(shippedConfig(), "com_height_m: 0.549", "com_height_m: 0.26");
-  try {
-    (void)parseClientSettings(low, "x.yaml");
-    FAIL() << "accepted a touchdown below the platform's top";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("scenarios.platform.target.com_height_m"),
-              std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(low, "x.yaml"); }),
+      test::HasSubstr("scenarios.platform.target.com_height_m"));
 }
 
 TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {
@@ -173,23 +137,15 @@ TEST(ClientSettings, ACourseListsItsWallsInOrder) {
   EXPECT_EQ(s.scenario("forward").jumps(), 1);
   EXPECT_EQ(s.scenario("vertical").jumps(), 1);
   const auto message = [](const std::string& text) -> std::string {
-    try {
-      (void)parseClientSettings(text, "x.yaml");
-    } catch (const std::exception& e) {
-      return e.what();
-    }
-    return "accepted";
+    return test::errorOf([&] { return parseClientSettings(text, "x.yaml"); });
   };
   // Out of order (or too close to the previous wall's far face).
-  EXPECT_NE(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, 15.0]"))
-                .find("scenarios.course.wall.x_m[1]"),
-            std::string::npos);
-  EXPECT_NE(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: []"))
-                .find("scenarios.course.wall.x_m must name at least one wall"),
-            std::string::npos);
-  EXPECT_NE(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, far]"))
-                .find("course.wall.x_m' has the wrong type"),
-            std::string::npos);
+  EXPECT_THAT(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, 15.0]")),
+              test::HasSubstr("scenarios.course.wall.x_m[1]"));
+  EXPECT_THAT(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: []")),
+              test::HasSubstr("scenarios.course.wall.x_m must name at least one wall"));
+  EXPECT_THAT(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, far]")),
+              test::HasSubstr("course.wall.x_m' has the wrong type"));
 }
 
 TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
@@ -213,40 +169,32 @@ TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
   EXPECT_DOUBLE_EQ(parseClientSettings(back, "x.yaml").scenario("backflip").run_up_speed_m_s,
                    -0.95);
   const auto message = [](const std::string& text) {
-    try {
-      (void)parseClientSettings(text, "x.yaml");
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string("accepted");
+    return test::errorOf<std::invalid_argument>(
+        [&] { return parseClientSettings(text, "x.yaml"); });
   };
   const std::string too_fast = replace(back, anchor + "-0.95", anchor + "-1.2");
-  EXPECT_NE(message(too_fast).find("scenarios.backflip.run_up_speed_m_s must be in [-1, 5]"),
-            std::string::npos)
+  EXPECT_THAT(message(too_fast),
+              test::HasSubstr("scenarios.backflip.run_up_speed_m_s must be in [-1, 5]"))
       << message(too_fast);
   // The measured speed may be speed_tolerance_m_s (0.03) faster: below the planner's -1 m/s.
   const std::string edge = replace(back, anchor + "-0.95", anchor + "-1.0");
-  EXPECT_NE(message(edge).find("run_up_speed_m_s - speed_tolerance_m_s must be >= -1.0 m/s"),
-            std::string::npos)
+  EXPECT_THAT(message(edge),
+              test::HasSubstr("run_up_speed_m_s - speed_tolerance_m_s must be >= -1.0 m/s"))
       << message(edge);
   // Walls stand ahead: a forward scenario's wall with a backward run-up is refused.
   const std::string into_wall =
       replace(shippedConfig(), "run_up_speed_m_s: 3.0", "run_up_speed_m_s: -0.5");
   ASSERT_NE(into_wall, shippedConfig());
-  EXPECT_NE(message(into_wall).find("needs wall.enabled false"), std::string::npos)
+  EXPECT_THAT(message(into_wall), test::HasSubstr("needs wall.enabled false"))
       << message(into_wall);
 }
 
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
   const std::string on = replace(shippedConfig(), "    enabled: false\n    root_ca_file",
                                  "    enabled: true\n    root_ca_file");
-  try {
-    (void)parseClientSettings(on, "x.yaml");
-    FAIL() << "TLS without a CA accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("planner.tls.root_ca_file"), std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(on, "x.yaml"); }),
+      test::HasSubstr("planner.tls.root_ca_file"));
   const std::string cert_only =
       replace(shippedConfig(), "cert_file: \"\"", "cert_file: \"robot.pem\"");
   EXPECT_THROW((void)parseClientSettings(cert_only, "x.yaml"), std::invalid_argument);
@@ -262,13 +210,9 @@ TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
 
 TEST(ClientSettings, BadEnumListsTheChoices) {
   const std::string text = replace(shippedConfig(), "event: touchdown", "event: landing");
-  try {
-    (void)parseClientSettings(text, "x.yaml");
-    FAIL();
-  } catch (const std::runtime_error& e) {
-    EXPECT_NE(std::string(e.what()).find("is not one of apex, touchdown"), std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, "x.yaml"); }),
+      test::HasSubstr("is not one of apex, touchdown"));
 }
 
 }  // namespace

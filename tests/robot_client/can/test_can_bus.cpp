@@ -13,6 +13,7 @@
 
 #include "can/can_bus.h"
 #include "can/mit_codec.h"
+#include "error_of.h"
 
 namespace wj::can {
 namespace {
@@ -26,12 +27,7 @@ int pfCanErrno() {
 }
 
 std::string openError(const std::string& name) {
-  try {
-    SocketCanBus bus(name);
-  } catch (const CanError& e) {
-    return e.what();
-  }
-  return "no exception";
+  return test::errorOf<CanError>([&] { SocketCanBus bus(name); });
 }
 
 TEST(SocketCanBus, ErrorMessageSaysWhatIsMissing) {
@@ -39,23 +35,22 @@ TEST(SocketCanBus, ErrorMessageSaysWhatIsMissing) {
   if (err == EAFNOSUPPORT) {
     // This machine: the kernel has no PF_CAN.
     const std::string msg = openError("can0");
-    EXPECT_NE(msg.find("SocketCAN is not available"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("the kernel has no PF_CAN support"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("Address family not supported by protocol"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("load the can and can_raw modules"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("in-process bus"), std::string::npos) << msg;
+    EXPECT_THAT(msg, test::HasSubstr("SocketCAN is not available")) << msg;
+    EXPECT_THAT(msg, test::HasSubstr("the kernel has no PF_CAN support")) << msg;
+    EXPECT_THAT(msg, test::HasSubstr("Address family not supported by protocol")) << msg;
+    EXPECT_THAT(msg, test::HasSubstr("load the can and can_raw modules")) << msg;
+    EXPECT_THAT(msg, test::HasSubstr("in-process bus")) << msg;
   } else {
     ASSERT_EQ(err, 0) << "socket(PF_CAN) failed otherwise: " << std::strerror(err);
     const std::string msg = openError("wjnosuchcan9");
-    EXPECT_NE(msg.find("CAN interface 'wjnosuchcan9' does not exist"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("ip link"), std::string::npos) << msg;
+    EXPECT_THAT(msg, test::HasSubstr("CAN interface 'wjnosuchcan9' does not exist")) << msg;
+    EXPECT_THAT(msg, test::HasSubstr("ip link")) << msg;
   }
 }
 
 TEST(SocketCanBus, InvalidInterfaceNameIsRefusedFirst) {
-  EXPECT_NE(openError("").find("is invalid"), std::string::npos);
-  EXPECT_NE(openError("a_name_much_too_long_for_linux").find("1 to 15 characters"),
-            std::string::npos);
+  EXPECT_THAT(openError(""), test::HasSubstr("is invalid"));
+  EXPECT_THAT(openError("a_name_much_too_long_for_linux"), test::HasSubstr("1 to 15 characters"));
 }
 
 TEST(SocketCanBus, RoundTripOnVcan0) {

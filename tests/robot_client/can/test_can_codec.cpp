@@ -11,6 +11,7 @@
 
 #include "can/can_settings.h"
 #include "can/mit_codec.h"
+#include "error_of.h"
 
 namespace wj::can {
 namespace {
@@ -249,22 +250,17 @@ TEST(MitCodec, MalformedFramesAreRejected) {
 TEST(MitLimits, ValidateNamesTheField) {
   EXPECT_NO_THROW(MitLimits{}.validate());
   const auto message = [](const MitLimits& l) {
-    try {
-      l.validate();
-    } catch (const std::invalid_argument& e) {
-      return std::string(e.what());
-    }
-    return std::string("no exception");
+    return test::errorOf<std::invalid_argument>([&] { return l.validate(); });
   };
   MitLimits l;
   l.p_min = 12.5;
-  EXPECT_NE(message(l).find("p_min"), std::string::npos) << message(l);
+  EXPECT_THAT(message(l), test::HasSubstr("p_min")) << message(l);
   l = {};
   l.kd_min = -1.0;
-  EXPECT_NE(message(l).find("kd_min must be >= 0"), std::string::npos) << message(l);
+  EXPECT_THAT(message(l), test::HasSubstr("kd_min must be >= 0")) << message(l);
   l = {};
   l.t_max = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_NE(message(l).find("t_min/t_max must be finite"), std::string::npos) << message(l);
+  EXPECT_THAT(message(l), test::HasSubstr("t_min/t_max must be finite")) << message(l);
 }
 
 // CAN settings ---------------------------------------------------------------------------------
@@ -290,12 +286,7 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 }
 
 std::string parseError(const std::string& text) {
-  try {
-    parseCanRobotSettings(text, "can.yaml");
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "no exception";
+  return test::errorOf([&] { return parseCanRobotSettings(text, "can.yaml"); });
 }
 
 TEST(CanSettings, ProjectConfigLoadsAndFitsTheRobot) {
@@ -317,38 +308,28 @@ TEST(CanSettings, ProjectConfigLoadsAndFitsTheRobot) {
 
 TEST(CanSettings, UnknownMissingAndBadKeysAreRefused) {
   const std::string text = configText();
-  EXPECT_NE(parseError(replaced(text, "host_can_id: 0", "host_can_id: 0\nhost_id: 1"))
-                .find("unknown key 'host_id'"),
-            std::string::npos);
-  EXPECT_NE(parseError(replaced(text, "    kd_max: 5.0", "    kd_maxx: 5.0"))
-                .find("limits.HAA: unknown key 'kd_maxx'"),
-            std::string::npos);
-  EXPECT_NE(parseError(replaced(text, "  RH_WHEEL: {can_id: 4, direction: 1, offset_rad: 0.0}", ""))
-                .find("missing key 'RH_WHEEL'"),
-            std::string::npos);
-  EXPECT_NE(parseError(replaced(text, "RF_KFE:   {can_id: 3", "RF_KFE:   {can_id: 2"))
-                .find("also used by RF_HFE"),
-            std::string::npos);
-  EXPECT_NE(parseError(replaced(text, "LH_HFE:   {can_id: 2, direction: 1",
-                                "LH_HFE:   {can_id: 2, direction: 0.5"))
-                .find("direction must be +1 or -1"),
-            std::string::npos);
-  EXPECT_NE(parseError(replaced(text, "reply_timeout_periods: 3", "reply_timeout_periods: x"))
-                .find("reply_timeout_periods: has the wrong type"),
-            std::string::npos);
+  EXPECT_THAT(parseError(replaced(text, "host_can_id: 0", "host_can_id: 0\nhost_id: 1")),
+              test::HasSubstr("unknown key 'host_id'"));
+  EXPECT_THAT(parseError(replaced(text, "    kd_max: 5.0", "    kd_maxx: 5.0")),
+              test::HasSubstr("limits.HAA: unknown key 'kd_maxx'"));
+  EXPECT_THAT(
+      parseError(replaced(text, "  RH_WHEEL: {can_id: 4, direction: 1, offset_rad: 0.0}", "")),
+      test::HasSubstr("missing key 'RH_WHEEL'"));
+  EXPECT_THAT(parseError(replaced(text, "RF_KFE:   {can_id: 3", "RF_KFE:   {can_id: 2")),
+              test::HasSubstr("also used by RF_HFE"));
+  EXPECT_THAT(parseError(replaced(text, "LH_HFE:   {can_id: 2, direction: 1",
+                                  "LH_HFE:   {can_id: 2, direction: 0.5")),
+              test::HasSubstr("direction must be +1 or -1"));
+  EXPECT_THAT(parseError(replaced(text, "reply_timeout_periods: 3", "reply_timeout_periods: x")),
+              test::HasSubstr("reply_timeout_periods: has the wrong type"));
 }
 
 TEST(CanSettings, RangesMustCoverTheDrives) {
   const model::RobotModel m = loadRobot();
   CanRobotSettings s;
   s.limits[1].t_max = 30.0;
-  try {
-    s.validateAgainst(m);
-    ADD_FAILURE() << "no exception";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("must cover the peak torque"), std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT(test::errorOf<std::invalid_argument>([&] { return s.validateAgainst(m); }),
+              test::HasSubstr("must cover the peak torque"));
   s = {};
   s.limits[2].v_min = -30.0;
   EXPECT_THROW(s.validateAgainst(m), std::invalid_argument);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "error_of.h"
 #include "estimator/state_estimator.h"
 
 // Counts heap allocations of the whole process by interposing glibc's malloc, to check that
@@ -47,12 +48,8 @@ TEST(EstimatorSettings, ValidateNamesTheField) {
   EstimatorSettings s;
   EXPECT_NO_THROW(s.validate());
   s.wheel_velocity_std_m_s = 0.0;
-  try {
-    s.validate();
-    FAIL() << "no throw";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("wheel_velocity_std_m_s"), std::string::npos);
-  }
+  EXPECT_THAT(test::errorOf<std::invalid_argument>([&] { return s.validate(); }),
+              test::HasSubstr("wheel_velocity_std_m_s"));
   s = {};
   s.max_consecutive_rejections = 0;
   EXPECT_THROW(s.validate(), std::invalid_argument);
@@ -86,19 +83,13 @@ TEST(EstimatorSettings, YamlReadsEveryKeyAndRejectsUnknownOrMissing) {
   EXPECT_EQ(s.max_consecutive_rejections, 40);
   EXPECT_DOUBLE_EQ(s.gravity_m_s2, 9.8);
   const auto message = [](const std::string& text) {
-    try {
-      parseEstimatorSettings(text, "test");
-    } catch (const std::runtime_error& e) {
-      return std::string(e.what());
-    }
-    return std::string("no error");
+    return test::errorOf<std::runtime_error>([&] { return parseEstimatorSettings(text, "test"); });
   };
-  EXPECT_NE(message(fullYaml("wheel_velocty_std: 1\n")).find("unknown key 'wheel_velocty_std'"),
-            std::string::npos);
-  EXPECT_NE(message(fullYaml("", "gravity_m_s2")).find("missing key 'gravity_m_s2'"),
-            std::string::npos);
-  EXPECT_NE(message(fullYaml("", "max_speed_m_s") + "max_speed_m_s: -1\n").find("max_speed_m_s"),
-            std::string::npos);
+  EXPECT_THAT(message(fullYaml("wheel_velocty_std: 1\n")),
+              test::HasSubstr("unknown key 'wheel_velocty_std'"));
+  EXPECT_THAT(message(fullYaml("", "gravity_m_s2")), test::HasSubstr("missing key 'gravity_m_s2'"));
+  EXPECT_THAT(message(fullYaml("", "max_speed_m_s") + "max_speed_m_s: -1\n"),
+              test::HasSubstr("max_speed_m_s"));
 }
 
 TEST(StateEstimator, WheelCentreMatchesRobotModelAndVelocityMatchesFiniteDifferences) {

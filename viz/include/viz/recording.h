@@ -82,6 +82,9 @@ struct Recording {
   int frameAt(double t) const;
   /// Index of the highest CoM between jump_start_t and touchdown_t (the whole run if unknown).
   int apexFrame() const;
+  /// Index of the highest CoM between times from_t and to_t, one jump of the run (from the
+  /// first frame if from_t is not finite, to the last if to_t is not).
+  int apexFrame(double from_t, double to_t) const;
 };
 
 /// The frame of a planar pose: CoM at (x, z) in the sagittal plane, pitch nose-up positive
