@@ -158,9 +158,10 @@ void addLegDynamics(const JumpModelConstants& M, const Solved& S, double t, Segm
         const model::Inertia& in = links[li].inertia;
         auto com = [&](int i) { return Eigen::Vector3d(lm[i].X_W[li] * in.com); };
         const Eigen::Vector3d acc = (com(2) - 2.0 * com(1) + com(0)) / (h * h);
+        // The angles' differences wrapped: a flip's links pass +-pi (atan2's cut).
+        const double a0 = linkAngle(lm[0].X_W[li]), a1 = linkAngle(lm[1].X_W[li]);
         const double phi_dd =
-            (linkAngle(lm[2].X_W[li]) - 2.0 * linkAngle(lm[1].X_W[li]) + linkAngle(lm[0].X_W[li])) /
-            (h * h);
+            (wrapToPi(linkAngle(lm[2].X_W[li]) - a1) - wrapToPi(a1 - a0)) / (h * h);
         moment += (now.X_W[li] * in.com - o).cross(in.mass * (acc + g));
         moment += in.inertia_com(1, 1) * phi_dd * Eigen::Vector3d::UnitY();
         if (n == 3) {
