@@ -262,7 +262,7 @@ TEST(TakeoffFidelity, MomentumOfARigidSpinIsTheCompositeInertia) {
 // check misses by 0.9-1.4 kg m^2/s (docs/planner.md, "Stance momentum"). The check ends at t2,
 // before the unloading tail, which is off here so that the plans are those the bound was set
 // on: with the tail the DE's plans are other ones, on which the E(t) interpolation misses by
-// 0.005 / 0.024 / 0.026 (4.7, 4.6, 7.7 %; session 14).
+// 0.005 / 0.024 / 0.026 (14, 4.6, 7.7 %; session 14).
 TEST(TakeoffFidelity, PlannedMomentumFollowsTheGroundForces) {
   const auto robot = model::RobotModel::loadDefault();
   planner::PlannerSettings settings = plannerSettings(true);
