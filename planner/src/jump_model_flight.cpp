@@ -26,7 +26,8 @@ void integrateFlightAttitude(const JumpModelConstants& M, Solved& S) {
   S.n_flight = n;
   double i_to = 0.0, h_to = 0.0;
   flightMomentum(M, S.q_to, S.qd_to, i_to, h_to);
-  const double h_y = -i_to * S.takeoff.pitch_rate + h_to;
+  // (about +y; the unloading tail's impulse is nose-up positive)
+  const double h_y = -i_to * S.takeoff.pitch_rate + h_to - S.tail_h;
   // The body's nose-up pitch rate at time t (about -y), and the legs' posture and CoM offset.
   auto rate_at = [&](double t, std::array<Eigen::Vector2d, 2>& q, Eigen::Vector2d* c) {
     std::array<Eigen::Vector2d, 2> qd;

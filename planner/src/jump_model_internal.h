@@ -80,7 +80,11 @@ struct Solved {
   double e_t1 = 0.0;  // E at t1 from the first pass (two-step: the front's t1 sample)
   Eigen::Vector2d c_front_t1 = Eigen::Vector2d::Zero();  // ... and its CoM offset
   bool takeoff_posture = false;                          // q_to, c_to, qd_to and wheel_to are final
+  // `takeoff` is the flight's start: the push's state at t2 plus the unloading tail's
+  // velocity change (addUnloadingTail); tail_h is the tail's nose-up angular impulse about the
+  // CoM [kg m^2/s], which the flight's momentum adds.
   PlanarState mid, takeoff, touchdown;
+  double tail_h = 0.0;
   Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
   double front_wheel_rate_t1 = 0.0;
   LegPose front_pose_t1;  // inversePose(front_b_t1), and its reach margin

@@ -107,6 +107,24 @@ double frontPairHandover(const JumpModelConstants& M, const Sample& smp) {
   return moving - at_rest;
 }
 
+// The lift-off's unloading tail (docs/planner.md, "The lift-off's unloading tail"): a
+// simultaneous take-off's ground force at t2 falls linearly to zero over
+// settings.takeoff_unload_s while the legs brake, as Simbody's contact does in 4-5 ms. Its
+// impulse, half the force at t2 times that time, goes into the flight's CoM velocity, and half
+// the moment of Eq. S-0 at t2 times it into the flight's angular momentum. The tail is taken
+// as an impulse at t2: what moves the CoM within it (~0.1 mm) and the contacts' travel are
+// left out.
+void addUnloadingTail(const JumpModelConstants& M, Solved& S) {
+  S.tail_h = 0.0;
+  const double half = 0.5 * M.settings.takeoff_unload_s;
+  if (S.two_step || !(half > 0.0)) return;
+  const double t = S.t2;
+  const double fx = S.Fx1(t), fz = S.Fz1(t);
+  S.takeoff.vx += half * fx / M.mass;
+  S.takeoff.vz += half * fz / M.mass;
+  S.tail_h = half * (M.d_hind * fz + (M.d_front - M.d_hind) * S.fFz1(t) + S.Z1(t) * fx);
+}
+
 // The pitch of the take-off (Eq. S3, centroidal): the whole robot's angular momentum about its
 // CoM changes by the moment of the ground forces,
 //   d/dt (I theta' + E) = d_H Fz + (d_F - d_H) f_Fz + z Fx,
@@ -196,6 +214,7 @@ bool solvePitch(const JumpModelConstants& M, Solved& S) {
   S.W2 = derivative(S.P2);
   S.mid = stateAt(M, S, S.t1 / 2, M.settings.gravity);
   S.takeoff = stateAt(M, S, S.t2, M.settings.gravity);
+  addUnloadingTail(M, S);
   return true;
 }
 

@@ -122,6 +122,8 @@ void PlannerSettings::validate() const {
   check(platform_margin_m >= 0, "physics.platform_margin_m", ">= 0", platform_margin_m);
   check(actuator_torque_scale > 0 && actuator_torque_scale <= 10, "physics.actuator_torque_scale",
         "in (0, 10]", actuator_torque_scale);
+  check(takeoff_unload_s >= 0 && takeoff_unload_s <= 0.02, "physics.takeoff_unload_s",
+        "in [0, 0.02]", takeoff_unload_s);
   check(tuck_end_fraction > 0 && tuck_end_fraction < extend_start_fraction,
         "postures.tuck_end_fraction", "in (0, extend_start_fraction)", tuck_end_fraction);
   check(extend_start_fraction < extend_end_fraction && extend_end_fraction <= 1,
@@ -327,6 +329,7 @@ PlannerSettings parse(const YAML::Node& root) {
               {"obstacle_margin_m", number(s.obstacle_margin_m)},
               {"platform_margin_m", number(s.platform_margin_m)},
               {"actuator_torque_scale", number(s.actuator_torque_scale)},
+              {"takeoff_unload_s", number(s.takeoff_unload_s)},
               {"actuator_model",
                choice(s.actuator_model, std::map<std::string, ActuatorModel>{
                                             {"envelope", ActuatorModel::Envelope},

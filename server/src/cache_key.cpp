@@ -178,9 +178,10 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // screened against the step box; 8: a touchdown target over the obstacle lands on it, which
   // the probes below, over the ground beyond their box, do not see; 9: the backflip's box and
   // initial guess below; 10: a backflip's hind roll from its phase-1 speed at t1, which no probe
-  // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below),
-  // which the probes below, run without the polish, do not see.
-  w.put(std::uint32_t{11});
+  // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below;
+  // 12: takeoff_unload_s below), which the probes below, run without the polish, do
+  // not see.
+  w.put(std::uint32_t{12});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -219,6 +220,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.putDouble(s.platform_margin_m);
   // When a wall jump's legs start extending (the probes' worst clearance need not fall there).
   w.putDouble(s.wall_extend_start_fraction);
+  // The lift-off's unloading tail (the "up" probe sees it; hashed as well so that a cache never
+  // mixes the two models' plans).
+  w.putDouble(s.takeoff_unload_s);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

@@ -51,6 +51,8 @@ Eigen::VectorXd nominalU(const JumpModel& m) {
 // Integrates the planar rigid body with the plan's force polynomials applied at the wheel
 // contacts, whose positions come from the plan's joint angles through forward kinematics:
 // an independent check of the linear solve, the kinematics and the closed-form trajectory.
+// After a simultaneous take-off's t2 the force at t2 falls linearly to zero over the
+// settings' takeoff_unload_s (the unloading tail, which the model takes as an impulse at t2).
 PlanarState integrate(const JumpPlan& plan, const JumpModel& m, double t_end) {
   const PlanarLeg leg{robot().legGeometry(Leg::LF).thigh_length,
                       robot().legGeometry(Leg::LF).shank_length};
@@ -86,7 +88,15 @@ PlanarState integrate(const JumpPlan& plan, const JumpModel& m, double t_end) {
         ff = {ph.front.fx(tau), ph.front.fz(tau)};
         break;
       }
-    if (t > plan.t2) fh = ff = Eigen::Vector2d::Zero();
+    const double unload = m.settings().takeoff_unload_s;
+    if (t > plan.t2 && plan.mode == TakeoffMode::Simultaneous && t < plan.t2 + unload) {
+      const auto& ph = plan.force_phases.back();
+      const double tau = ph.t_end - ph.t_start, share = 1.0 - (t - plan.t2) / unload;
+      fh = share * Eigen::Vector2d(ph.hind.fx(tau), ph.hind.fz(tau));
+      ff = share * Eigen::Vector2d(ph.front.fx(tau), ph.front.fz(tau));
+    } else if (t > plan.t2) {
+      fh = ff = Eigen::Vector2d::Zero();
+    }
     const double c = std::cos(y[2]), s = std::sin(y[2]);
     // The CoM moves in the base with the posture: axle - CoM = R (hfe + fk(q) - c(q)).
     const Eigen::VectorXd q_full = jointsFull(t);
@@ -177,6 +187,32 @@ TEST(JumpModel, ConstantForceTakeoffMatchesItsAnalyticSolution) {
   for (const double t : {0.0, 0.05, 0.13, T}) {
     EXPECT_NEAR(ph.hind.fx(t) + ph.front.fx(t), Fx, 1e-6);
     EXPECT_NEAR(ph.hind.fz(t) + ph.front.fz(t), Fz, 1e-6);
+  }
+}
+
+// The lift-off's unloading tail: the force at t2 falling linearly to zero over
+// takeoff_unload_s adds half its impulse to the flight's CoM velocity (closed form with a
+// constant push), and nothing without the tail.
+TEST(JumpModel, UnloadingTailAddsHalfTheLiftOffForceImpulse) {
+  Scenario sc = makePreset(makePlanner(), "vertical");
+  sc.initial.v0 = 0.5;
+  for (const double unload : {0.0, 0.004, 0.01}) {
+    PlannerSettings s = makePlanner().settings();
+    s.takeoff_unload_s = unload;
+    const JumpModel m(robot(), s, sc.task, sc.initial);
+    const double T = 0.2, Fx = 40.0, Fz = 500.0, g = s.gravity, M = m.mass();
+    Eigen::VectorXd u = nominalU(m);
+    u[kT1] = T;
+    u[kTakeoffDx] = Fx / M * T * T / 2;
+    u[kTakeoffDvx] = Fx / M * T;
+    u[kTakeoffDz] = (Fz / M - g) * T * T / 2;
+    u[kTakeoffVz] = (Fz / M - g) * T;
+    const JumpPlan plan = m.buildPlan(u);
+    SCOPED_TRACE(unload);
+    EXPECT_NEAR(plan.predicted.takeoff.state.vx, 0.5 + Fx / M * T + 0.5 * unload * Fx / M, 1e-9);
+    EXPECT_NEAR(plan.predicted.takeoff.state.vz, (Fz / M - g) * T + 0.5 * unload * Fz / M, 1e-9);
+    // The push itself is u's (the tail comes after it).
+    EXPECT_NEAR(plan.centroidal[100].vz, (Fz / M - g) * 100 * plan.dt, 1e-6);
   }
 }
 
@@ -827,6 +863,16 @@ TEST(PlannerSettings, YamlFailsOnUnknownKeysAndNamesThem) {
                std::runtime_error);
   EXPECT_THROW((void)PlannerSettings::fromYamlString("physics: {friction_mu: -1}\n"),
                std::runtime_error);
+}
+
+TEST(PlannerSettings, UnloadingTailIsReadAndCheckedWithItsRange) {
+  EXPECT_DOUBLE_EQ(PlannerSettings().takeoff_unload_s, 0.004);
+  EXPECT_DOUBLE_EQ(
+      PlannerSettings::fromYamlString("physics: {takeoff_unload_s: 0.0}\n").takeoff_unload_s, 0.0);
+  EXPECT_THAT(test::errorOf<std::runtime_error>([] {
+                (void)PlannerSettings::fromYamlString("physics: {takeoff_unload_s: 0.05}\n");
+              }),
+              test::HasSubstr("physics.takeoff_unload_s must be in [0, 0.02]"));
 }
 
 TEST(PlannerSettings, ContactChainIsReadAndCheckedByName) {

@@ -89,6 +89,15 @@ struct PlannerSettings {
   /// settings-file key nor in the service's settings hash (server/src/cache_key.cpp): with it,
   /// plans are consistent but not closer to Simbody until the lift-off is modelled.
   bool stance_momentum = false;
+  /// The lift-off's unloading tail [s]: a simultaneous take-off's ground force at t2 is not
+  /// zero (~150 N per wheel on vertical), and the wheels keep pushing while the legs brake
+  /// and the contact unloads. The model takes the force as falling linearly to zero over this
+  /// time after t2 and adds its impulse (force and moment at t2 times half of it) to the
+  /// flight's CoM velocity and angular momentum (docs/planner.md, "The lift-off's unloading
+  /// tail"). Simbody's wheels leave 4.5-5.5 ms after t2, with the impulse of a linear fall over
+  /// 3.6-4.3 ms (session 14, seed 7); 0: the flight starts from the push's state at t2 (the
+  /// model until session 13). A two-step take-off is not affected.
+  double takeoff_unload_s = 0.004;
 
   // --- postures (sagittal angles of every leg; HAA held at 0)
   double stand_hfe_rad = 1.0;  ///< take-off start posture used by the presets
