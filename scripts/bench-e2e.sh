@@ -31,7 +31,7 @@ for s in $SCENARIOS; do
 done
 wanted() { [[ " $SCENARIOS " == *" $1 "* ]]; }
 # The service of the shipped robot, for every scenario but the backflip.
-if [[ " $SCENARIOS " =~ \ (forward|platform|course|vertical)\  ]]; then
+if wanted forward || wanted platform || wanted course || wanted vertical; then
   start_planner_server "$BIN" "$PORT" "$WORK/plan_cache.sqlite" "$WORK/planner_server.yaml" \
     "$WORK/server.log"
 fi
