@@ -147,6 +147,9 @@ void addLegDynamics(const JumpModelConstants& M, const Solved& S, double t, Segm
         now.X_W[wheel_link].translation() - Eigen::Vector3d(0.0, 0.0, M.wheel_radius);
     const Eigen::Vector3d f_c(p.f.x(), 0.0, p.f.y());
     const double wheel_acc = (lm[2].wheel_rate[pair] - lm[0].wheel_rate[pair]) / (2.0 * h);
+    const model::JointSpec& wheel = M.robot.joints()[haa + 3];
+    const Eigen::Vector3d wheel_axis =
+        (now.X_W[wheel.parent_link] * wheel.X_PJ).linear() * wheel.axis;
     for (int m = 0; m < 4; ++m) {
       const model::JointSpec& joint = M.robot.joints()[haa + m];
       // The joint's frame: its parent link's frame times X_PJ.
@@ -164,13 +167,7 @@ void addLegDynamics(const JumpModelConstants& M, const Solved& S, double t, Segm
             (wrapToPi(linkAngle(lm[2].X_W[li]) - a1) - wrapToPi(a1 - a0)) / (h * h);
         moment += (now.X_W[li] * in.com - o).cross(in.mass * (acc + g));
         moment += in.inertia_com(1, 1) * phi_dd * Eigen::Vector3d::UnitY();
-        if (n == 3) {
-          const Eigen::Vector3d w_axis =
-              (now.X_W[M.robot.joints()[haa + 3].parent_link] * M.robot.joints()[haa + 3].X_PJ)
-                  .linear() *
-              M.robot.joints()[haa + 3].axis;
-          moment += in.inertia_com(1, 1) * wheel_acc * w_axis;
-        }
+        if (n == 3) moment += in.inertia_com(1, 1) * wheel_acc * wheel_axis;
       }
       out.tau[haa + m] = axis.dot(moment);
     }
