@@ -1,6 +1,9 @@
 #include "robot_client/plan_requester.h"
 
+#include <google/protobuf/util/json_util.h>
+
 #include <cmath>
+#include <fstream>
 #include <future>
 #include <sstream>
 #include <stdexcept>
@@ -215,6 +218,16 @@ std::string convertDense(const v1::Plan& p, planner::JumpPlan& plan) {
   return "";
 }
 
+// One line of JSON per request, appended (the worker thread; never the loop).
+void logRequest(const v1::PlanJumpRequest& request, const std::string& path) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  if (!google::protobuf::util::MessageToJsonString(request, &json, options).ok()) return;
+  std::ofstream out(path, std::ios::app);
+  out << json << "\n";
+}
+
 }  // namespace
 
 std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner::JumpPlan& plan) {
@@ -295,7 +308,9 @@ void PlanRequester::handle(const PlanRequestSnapshot& snapshot) {
   const auto start = std::chrono::steady_clock::now();
   const auto deadline =
       std::chrono::milliseconds(static_cast<long>(connection_.deadline_s * 1000.0));
-  client::PlanResult result = client_->planJump(makeRequest(snapshot, connection_), deadline).get();
+  const v1::PlanJumpRequest request = makeRequest(snapshot, connection_);
+  if (!connection_.request_log_file.empty()) logRequest(request, connection_.request_log_file);
+  client::PlanResult result = client_->planJump(request, deadline).get();
   PlanRequestInfo info;
   info.latency_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

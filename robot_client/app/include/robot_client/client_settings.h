@@ -74,6 +74,10 @@ struct PlannerConnection {
   std::string tls_cert_file;     ///< this robot's certificate ("" = no client certificate)
   std::string tls_key_file;      ///< its key
   std::string tls_server_name;   ///< expected name in the service's certificate ("" = host)
+  /// Not from the YAML (robot_client --request-log): every PlanJumpRequest sent is appended to
+  /// this file as one line of JSON (proto field names), for replaying it outside the loop
+  /// (planner_cli plan --request). "" = none. Written by the requester's worker thread.
+  std::string request_log_file;
 };
 
 /// What the robot does once a jump's landing is over.
