@@ -134,6 +134,24 @@ Eigen::Vector3d requestVelocity(const Eigen::Vector3d& v_WB, const Eigen::Quater
                                        : v_WB;
 }
 
+bool applyTakeoffPosture(const ScenarioSettings& scenario,
+                         std::array<double, model::kNumJoints>& q) {
+  if (!scenario.has_takeoff_posture) return false;
+  const double tol = scenario.takeoff_posture_max_offset_rad;
+  for (const model::Leg leg : model::kLegs) {
+    const double hfe = q[model::jointIndex(leg, model::JointKind::HFE)];
+    const double kfe = q[model::jointIndex(leg, model::JointKind::KFE)];
+    if (!(std::abs(hfe - scenario.takeoff_hfe_rad) <= tol) ||
+        !(std::abs(kfe - scenario.takeoff_kfe_rad) <= tol))
+      return false;
+  }
+  for (const model::Leg leg : model::kLegs) {
+    q[model::jointIndex(leg, model::JointKind::HFE)] = scenario.takeoff_hfe_rad;
+    q[model::jointIndex(leg, model::JointKind::KFE)] = scenario.takeoff_kfe_rad;
+  }
+  return true;
+}
+
 namespace {
 
 // The header of a plan: phase times and force polynomials.

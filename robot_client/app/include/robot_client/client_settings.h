@@ -119,6 +119,17 @@ struct ScenarioSettings {
   /// edge where the simulated jump and the plan differ (docs/robust.md, "Take-off lead").
   /// Optional YAML key, default 0.
   double takeoff_lead_m = 0.0;
+  /// The take-off posture (optional YAML `takeoff_posture: {hfe_rad, kfe_rad, max_offset_rad}`,
+  /// every leg alike): the plan is requested from it instead of the measured leg angles when
+  /// each measured HFE and KFE is within max_offset_rad of it (else from the measured ones).
+  /// The executor imposes the plan's first posture at the take-off's start (stiff PD), so the
+  /// legs are a commanded quantity, unlike the speed, the pitch and its rate, which stay
+  /// measured. The backflip's plans and their Simbody verdicts jump with 5-10 mrad of leg
+  /// angle (docs/backflip.md, "Session 15"), and the NMPC's crouch wanders by that much.
+  bool has_takeoff_posture = false;
+  double takeoff_hfe_rad = 1.0;                  ///< [rad]
+  double takeoff_kfe_rad = -2.0;                 ///< [rad]
+  double takeoff_posture_max_offset_rad = 0.03;  ///< [rad]
   /// Base height the NMPC holds while standing and rolling [m]: the run-up is done in the
   /// posture the jump starts from (the planner plans from the measured posture).
   double nmpc_base_height_m = 0.36;
