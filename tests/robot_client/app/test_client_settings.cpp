@@ -204,6 +204,65 @@ TEST(ClientRequest, SpeedIsClampedToThePlannersLowest) {
   EXPECT_TRUE(requestVelocity(forward, q_WB).isApprox(forward, 1e-15));
 }
 
+// The backflip is requested from its take-off posture when the measured crouch is near it: every
+// HFE and KFE replaced, the wheels and hip abductions untouched; one leg beyond the offset and
+// the measured angles go out unchanged. Without the key, nothing changes.
+TEST(ClientRequest, TheTakeoffPostureReplacesANearbyCrouch) {
+  const ScenarioSettings flip =
+      parseClientSettings(shippedConfig(), "robot_client.yaml").scenario("backflip");
+  ASSERT_TRUE(flip.has_takeoff_posture);
+  EXPECT_DOUBLE_EQ(flip.takeoff_hfe_rad, 1.0);
+  EXPECT_DOUBLE_EQ(flip.takeoff_kfe_rad, -2.0);
+  std::array<double, model::kNumJoints> measured{};
+  for (const model::Leg leg : model::kLegs) {
+    measured[model::jointIndex(leg, model::JointKind::HAA)] = 0.004;
+    measured[model::jointIndex(leg, model::JointKind::HFE)] = 1.0115;
+    measured[model::jointIndex(leg, model::JointKind::KFE)] = -1.9947;
+    measured[model::jointIndex(leg, model::JointKind::Wheel)] = -8.4;
+  }
+  std::array<double, model::kNumJoints> q = measured;
+  EXPECT_TRUE(applyTakeoffPosture(flip, q));
+  for (const model::Leg leg : model::kLegs) {
+    EXPECT_DOUBLE_EQ(q[model::jointIndex(leg, model::JointKind::HFE)], 1.0);
+    EXPECT_DOUBLE_EQ(q[model::jointIndex(leg, model::JointKind::KFE)], -2.0);
+    EXPECT_DOUBLE_EQ(q[model::jointIndex(leg, model::JointKind::HAA)], 0.004);
+    EXPECT_DOUBLE_EQ(q[model::jointIndex(leg, model::JointKind::Wheel)], -8.4);
+  }
+  // One knee 0.04 rad off (beyond max_offset_rad 0.03): sent as measured.
+  q = measured;
+  q[model::jointIndex(model::Leg::RH, model::JointKind::KFE)] = -2.04;
+  const auto before = q;
+  EXPECT_FALSE(applyTakeoffPosture(flip, q));
+  EXPECT_EQ(q, before);
+  // The forward scenario has none.
+  q = measured;
+  EXPECT_FALSE(applyTakeoffPosture(
+      parseClientSettings(shippedConfig(), "robot_client.yaml").scenario("forward"), q));
+  EXPECT_EQ(q, measured);
+}
+
+TEST(ClientSettings, TheTakeoffPostureIsBoundedAndComplete) {
+  const auto message = [](const std::string& text) {
+    return test::errorOf<std::invalid_argument>(
+        [&] { return parseClientSettings(text, "x.yaml"); });
+  };
+  const std::string shipped = shippedConfig();
+  const std::string far = replace(shipped, "max_offset_rad: 0.03", "max_offset_rad: 0.3");
+  ASSERT_NE(far, shipped);
+  EXPECT_THAT(message(far),
+              test::HasSubstr("scenarios.backflip.takeoff_posture.max_offset_rad must be in"))
+      << message(far);
+  const std::string knee = replace(shipped, "      kfe_rad: -2.0", "      kfe_rad: -3.0");
+  ASSERT_NE(knee, shipped);
+  EXPECT_THAT(message(knee), test::HasSubstr("takeoff_posture.kfe_rad must be in"))
+      << message(knee);
+  const std::string missing = replace(shipped, "      hfe_rad: 1.0", "      hfe_radius: 1.0");
+  ASSERT_NE(missing, shipped);
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, "x.yaml"); }),
+      test::HasSubstr("missing key 'scenarios.backflip.takeoff_posture.hfe_rad'"));
+}
+
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
   const std::string on = replace(shippedConfig(), "    enabled: false\n    root_ca_file",
                                  "    enabled: true\n    root_ca_file");
