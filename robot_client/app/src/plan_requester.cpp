@@ -130,8 +130,11 @@ Eigen::Vector3d requestVelocity(const Eigen::Vector3d& v_WB, const Eigen::Quater
   if (!(heading.squaredNorm() > 1e-12)) return v_WB;
   const Eigen::Vector3d h = heading.normalized();
   const double along = v_WB.dot(h);
-  return along < kPlannerLowestSpeedMS ? Eigen::Vector3d(v_WB + (kPlannerLowestSpeedMS - along) * h)
-                                       : v_WB;
+  // Clamped a hair inside the planner's range: the service projects the sent velocity on the
+  // heading it reads from the sent quaternion, and at exactly -1 m/s its last bit fell outside
+  // (noise seed 3: "must be in [-1, 4], got -1").
+  const double lowest = kPlannerLowestSpeedMS + kRequestSpeedMarginMS;
+  return along < lowest ? Eigen::Vector3d(v_WB + (lowest - along) * h) : v_WB;
 }
 
 bool applyTakeoffPosture(const ScenarioSettings& scenario,

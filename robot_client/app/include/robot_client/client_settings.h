@@ -92,6 +92,9 @@ std::string_view toString(AfterLanding after);
 /// a plan request's measured speed is clamped to it (ControlLoop), so that a backward run-up at
 /// -1 m/s, measured within its speed_tolerance_m_s past it, is still planned.
 inline constexpr double kPlannerLowestSpeedMS = -1.0;
+/// A request's speed is clamped this far inside kPlannerLowestSpeedMS, so that the service's
+/// own projection on the heading cannot round it past the bound [m/s].
+inline constexpr double kRequestSpeedMarginMS = 1e-9;
 
 /// What a scenario does. Forward: roll up to `run_up_speed_m_s`, request a plan, jump over the
 /// wall at `wall_x_m` (world), land and stop. Course: several walls (`wall_x_m` a list), each
