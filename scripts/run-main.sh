@@ -2,7 +2,7 @@
 # The main job: installs the dependencies, builds the release preset, then runs the end-to-end
 # simulated jumps (scripts/run-e2e.sh: planner_server on loopback + robot_client on the Simbody
 # robot, forward over the 0.25 m wall, vertical, onto a 0.25 m platform, the course and the
-# backflip), and finally plans the paper's presets and the platform and verifies each in Simbody
+# backflip, on the 57 Nm knee and on the real 42 Nm robot), and finally plans the paper's presets and the platform and verifies each in Simbody
 # side by side (sim_jump; the backflip on the 57 Nm knee of actuators-57nm.yaml and on the real
 # 42 Nm robot with config/backflip-42nm.yaml, their figures the knees over the take-off).
 # Telemetry, figures and pictures of every jump (snapshot strip, GIF, 3D replay page) go to

@@ -161,6 +161,17 @@ TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
   // The robot is chosen by configuration: the paper's 57 Nm knee (docs/backflip.md).
   EXPECT_EQ(flip.actuators_file, "actuators-57nm.yaml");
   EXPECT_EQ(s.scenario("forward").actuators_file, "actuators.yaml");
+  // The same flip on the real robot: only the actuators differ.
+  const ScenarioSettings& real = s.scenario("backflip_42nm");
+  EXPECT_EQ(real.actuators_file, "actuators.yaml");
+  EXPECT_EQ(real.mode, flip.mode);
+  EXPECT_DOUBLE_EQ(real.target_pitch_change_rad, flip.target_pitch_change_rad);
+  EXPECT_DOUBLE_EQ(real.target_dx_m, flip.target_dx_m);
+  EXPECT_DOUBLE_EQ(real.run_up_speed_m_s, flip.run_up_speed_m_s);
+  EXPECT_DOUBLE_EQ(real.speed_tolerance_m_s, flip.speed_tolerance_m_s);
+  EXPECT_TRUE(real.has_takeoff_posture);
+  EXPECT_DOUBLE_EQ(real.takeoff_hfe_rad, flip.takeoff_hfe_rad);
+  EXPECT_DOUBLE_EQ(real.takeoff_kfe_rad, flip.takeoff_kfe_rad);
 }
 
 TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
