@@ -5,13 +5,15 @@
 //   bench_build_plan write <preset> <file>   the decision vector of the preset's plan (seed 1,
 //       2 threads, with the polish), one line;
 //   bench_build_plan read <preset> <file> [repeats] [tau_file]   builds the plan `repeats` times
-//       (default 20) and prints one JSON line: the median wall time per build, the rows, and
-//       the sum of the torques' absolute values (equal between builds that export the same
-//       torques); with `tau_file`, also writes the torques (one row per line, t then the 16
-//       joints, %.17g), so that two builds' rows can be compared joint by joint.
+//       (default 20), then its knots (buildKnots) as often, and prints one JSON line: the median
+//       wall time per build of each, the rows and knots, and the sums of their torques' absolute
+//       values (equal between builds that export the same torques); with `tau_file`, also
+//       writes the dense torques (one row per line, t then the 16 joints, %.17g), so that two
+//       builds' rows can be compared joint by joint.
 //
 // For instruction counts, run `read` with repeats 1 under callgrind with
-// --toggle-collect='wj::planner::JumpModel::buildPlan*' (docs/planner.md, "Stance torques").
+// --toggle-collect='wj::planner::JumpModel::buildPlan*' (or buildKnots*; docs/planner.md,
+// "Stance torques").
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -76,6 +78,15 @@ int read(const JumpPlanner& planner, const Scenario& sc, const std::string& pres
     us.push_back(d.count());
   }
   std::sort(us.begin(), us.end());
+  std::vector<double> knots_us;
+  JumpPlan knots;
+  for (int r = 0; r < repeats; ++r) {
+    const auto start = std::chrono::steady_clock::now();
+    knots = model.buildKnots(u, &ev);
+    const std::chrono::duration<double, std::micro> d = std::chrono::steady_clock::now() - start;
+    knots_us.push_back(d.count());
+  }
+  std::sort(knots_us.begin(), knots_us.end());
   if (!tau_file.empty()) {
     std::FILE* f = std::fopen(tau_file.c_str(), "w");
     if (f == nullptr) {
@@ -91,9 +102,11 @@ int read(const JumpPlanner& planner, const Scenario& sc, const std::string& pres
   }
   std::printf(
       "{\"preset\": \"%s\", \"rows\": %d, \"t1_s\": %.4f, \"t2_s\": %.4f, \"repeats\": %d, "
-      "\"us_per_build_median\": %.1f, \"tau_abs_sum\": %.12g}\n",
+      "\"us_per_build_median\": %.1f, \"tau_abs_sum\": %.12g, \"knots\": %d, "
+      "\"us_per_knots_median\": %.1f, \"knots_tau_abs_sum\": %.12g}\n",
       preset.c_str(), plan.numSamples(), plan.t1, plan.t2, repeats, us[us.size() / 2],
-      plan.tau.cwiseAbs().sum());
+      plan.tau.cwiseAbs().sum(), knots.knots.size(), knots_us[knots_us.size() / 2],
+      knots.knots.tau.cwiseAbs().sum());
   return 0;
 }
 
