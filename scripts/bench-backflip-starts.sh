@@ -15,6 +15,8 @@
 # Defaults: build/release, 5, config/backflip-42nm.yaml, v0 -1.0 -0.98 -0.95.
 # WJ_FLIP_PITCH (0.005), WJ_FLIP_PITCH_RATE (0.05), WJ_FLIP_Q (0.01), WJ_FLIP_QD (0.1) set the
 # ranges; WJ_FLIP_SYMMETRIC=1 draws one perturbation per joint kind for all four legs.
+# WJ_FLIP_WORK=DIR keeps each run's start state (V0_SEED.start.json), JSON and log there, so
+# that a run can be replayed with sim_jump --start-state.
 set -euo pipefail
 if [ "${1:-}" = "-h" ] || [ "${1:-}" = "--help" ]; then
   sed -n '2,/^set -euo/p' "$0" | sed -e '$d' -e 's/^# \{0,1\}//'
@@ -32,8 +34,13 @@ if [ "${#V0S[@]}" -eq 0 ]; then V0S=(-1.0 -0.98 -0.95); fi
 BIN=$BUILD/bin
 [ -x "$BIN/sim_jump" ] || { echo "no $BIN/sim_jump: build it first" >&2; exit 2; }
 [ -f "$CONFIG" ] || { echo "no planner settings file $CONFIG" >&2; exit 2; }
-WORK=$(mktemp -d)
-trap 'rm -rf "$WORK"' EXIT
+if [ -n "${WJ_FLIP_WORK:-}" ]; then
+  WORK=$WJ_FLIP_WORK
+  mkdir -p "$WORK"
+else
+  WORK=$(mktemp -d)
+  trap 'rm -rf "$WORK"' EXIT
+fi
 for v0 in "${V0S[@]}"; do
   for seed in $(seq 0 "$SEEDS"); do
     base="$WORK/${v0}_${seed}"
