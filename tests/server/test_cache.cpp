@@ -129,6 +129,9 @@ TEST(SettingsHash, StableAndSensitiveToEveryKindOfSetting) {
   EXPECT_TRUE(changed([](auto& s) { s.platform_margin_m = 0.03; }));  // no probe lands on a box
   EXPECT_TRUE(changed([](auto& s) { s.tuck_end_fraction = 0.15; }));
   EXPECT_TRUE(changed([](auto& s) { s.wall_extend_start_fraction = 0.65; }));
+  // A backflip's knee clearance and front brake (no probe is a flip).
+  EXPECT_TRUE(changed([](auto& s) { s.flip_hind_knee_clearance_rad = 0.25; }));
+  EXPECT_TRUE(changed([](auto& s) { s.flip_front_brake_share = 0.6; }));
   // The solver's settings, field by field.
   EXPECT_TRUE(changed([](auto& s) { s.de.population_size = 33; }));
   EXPECT_TRUE(changed([](auto& s) { s.de.strategy = planner::de::Strategy::Rand1Bin; }));
