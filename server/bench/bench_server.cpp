@@ -282,13 +282,11 @@ class BinnedRequests {
         rng_(seed),
         id_("bench-" + std::to_string(seed)) {
     request_ = standing(v0_centre, height);
+    centre_ = request_;
+    centre_.set_request_id(id_ + "-centre");
   }
   /// The request at the centre of the bin (the one the cache is warmed with).
-  v1::PlanJumpRequest centre() const {
-    v1::PlanJumpRequest r = request_;
-    r.set_request_id(id_ + "-centre");
-    return r;
-  }
+  const v1::PlanJumpRequest& centre() const { return centre_; }
   /// The next request: a new state inside the bin.
   const v1::PlanJumpRequest& next() {
     const wj::server::CacheConfig bins;  // the defaults, as the benchmark's servers use
@@ -347,7 +345,8 @@ class BinnedRequests {
   std::mt19937 rng_;
   std::string id_;
   std::uint64_t count_ = 0;
-  v1::PlanJumpRequest request_;
+  v1::PlanJumpRequest request_;  ///< the last drawn
+  v1::PlanJumpRequest centre_;
 };
 
 // The bin centres of the hit benchmark's clients: 0, 0.1, 0.2, ... m/s.
@@ -571,8 +570,6 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
     for (std::size_t k = 0; k < kRing; ++k)
       ring.push_back(generators[static_cast<std::size_t>(i)].next());
   }
-  std::vector<v1::PlanJumpRequest> centres;  // each client's first (untimed) request
-  for (const auto& g : generators) centres.push_back(g.centre());
   std::vector<std::size_t> sent(static_cast<std::size_t>(clients), 0);
   const auto nextRequest = [&](int i) -> const v1::PlanJumpRequest& {
     const auto c = static_cast<std::size_t>(i);
@@ -589,7 +586,8 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
         ctx.set_deadline(std::chrono::system_clock::now() + 5s);
         const bool first = answered[static_cast<std::size_t>(i)]++ == 0;
         const grpc::Status s = stub.PlanJump(
-            &ctx, first ? centres[static_cast<std::size_t>(i)] : nextRequest(i), slot.fresh());
+            &ctx, first ? generators[static_cast<std::size_t>(i)].centre() : nextRequest(i),
+            slot.fresh());
         const v1::PlanJumpResponse& response = slot.get();
         if (!s.ok() || first) return s.ok();
         if (response.source() != v1::PLAN_SOURCE_CACHE_HIT || !useResponse(response)) ++not_hits;
