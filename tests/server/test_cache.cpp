@@ -450,6 +450,7 @@ TEST(HotResponses, ReadyBytesAndTheCallersSuffixParseAsTheCallersResponse) {
     wheeljump::planner::v1::PlanJumpResponse expected = first;
     expected.set_request_id(id);
     expected.mutable_stats()->set_total_ms(0.0625);
+    expected.set_ready_response(true);  // says the plan was built for another caller's state
     const std::string ready = readyBytes(first);
     EXPECT_EQ(first.request_id(), "");  // the per-call fields are not in the ready bytes
     EXPECT_EQ(first.stats().total_ms(), 0.0);
@@ -457,6 +458,8 @@ TEST(HotResponses, ReadyBytesAndTheCallersSuffixParseAsTheCallersResponse) {
     ASSERT_TRUE(parsed.ParseFromString(ready + readySuffix(id, 0.0625)));
     EXPECT_EQ(parsed.SerializeAsString(), expected.SerializeAsString()) << id;
     EXPECT_EQ(parsed.request_id(), id);
+    EXPECT_TRUE(parsed.ready_response());
+    EXPECT_FALSE(first.ready_response());  // the ready bytes say it only through the suffix
     EXPECT_EQ(parsed.stats().cache_key(), "abcd");
     EXPECT_EQ(parsed.stats().evaluations(), 1234u);
     EXPECT_EQ(parsed.plan().decision_vector_size(), 50);

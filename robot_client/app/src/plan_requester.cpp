@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <future>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
@@ -344,8 +345,21 @@ void PlanRequester::handle(const PlanRequestSnapshot& snapshot) {
   } else {
     const v1::PlanJumpResponse& r = result.response;
     info.source = sourceName(r.source());
+    // The service's hot tier answered with the plan of an earlier request of the same cache
+    // bin (planned_for, within half a bin of this state); the executor tracks it from the
+    // robot's own state all the same (docs/service.md, "Hot tier").
+    if (r.ready_response()) info.source += "_ready";
     info.verification = verificationName(r.verification().status());
     info.summary = r.feasibility().summary();
+    if (r.ready_response()) {
+      const Eigen::Vector3d x_B = snapshot.q_WB.normalized() * Eigen::Vector3d::UnitX();
+      const Eigen::Vector2d h = Eigen::Vector2d(x_B.x(), x_B.y()).normalized();
+      std::ostringstream from;
+      from << std::fixed << std::setprecision(3) << " (planned for v0 " << r.planned_for().v0_m_s()
+           << " m/s, pitch " << r.planned_for().pitch_rad() << " rad; this state v0 "
+           << snapshot.v_WB.head<2>().dot(h) << " m/s)";
+      info.summary += from.str();
+    }
     info.feasible = r.feasibility().feasible();
     info.predicted = fromProto(r.predicted());
     info.simulated = fromProto(r.verification().simulated());

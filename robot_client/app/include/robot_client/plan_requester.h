@@ -69,7 +69,7 @@ bool applyTakeoffPosture(const ScenarioSettings& scenario,
 
 struct PlanRequestInfo {
   double latency_ms = 0.0;   ///< post() to the answer, wall time
-  std::string source;        ///< cache_hit, cache_miss, warm_start, coalesced
+  std::string source;        ///< cache_hit, cache_hit_ready, cache_miss, warm_start, coalesced
   std::string verification;  ///< passed, failed, not_run
   std::string summary;       ///< feasibility summary or the error status
   int attempts = 0;
