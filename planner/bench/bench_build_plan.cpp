@@ -69,24 +69,21 @@ int read(const JumpPlanner& planner, const Scenario& sc, const std::string& pres
   // The evaluation, as the service passes its own (buildPlan then does not evaluate again).
   Evaluation ev;
   model.evaluate(u, ev);
-  std::vector<double> us;
-  JumpPlan plan;
-  for (int r = 0; r < repeats; ++r) {
-    const auto start = std::chrono::steady_clock::now();
-    plan = model.buildPlan(u, &ev);
-    const std::chrono::duration<double, std::micro> d = std::chrono::steady_clock::now() - start;
-    us.push_back(d.count());
-  }
-  std::sort(us.begin(), us.end());
-  std::vector<double> knots_us;
-  JumpPlan knots;
-  for (int r = 0; r < repeats; ++r) {
-    const auto start = std::chrono::steady_clock::now();
-    knots = model.buildKnots(u, &ev);
-    const std::chrono::duration<double, std::micro> d = std::chrono::steady_clock::now() - start;
-    knots_us.push_back(d.count());
-  }
-  std::sort(knots_us.begin(), knots_us.end());
+  // `repeats` calls of build, their wall times sorted [us], the last call's plan in `out`.
+  const auto timed = [&](auto build, JumpPlan& out) {
+    std::vector<double> times;
+    for (int r = 0; r < repeats; ++r) {
+      const auto start = std::chrono::steady_clock::now();
+      out = build();
+      const std::chrono::duration<double, std::micro> d = std::chrono::steady_clock::now() - start;
+      times.push_back(d.count());
+    }
+    std::sort(times.begin(), times.end());
+    return times;
+  };
+  JumpPlan plan, knots;
+  const std::vector<double> us = timed([&] { return model.buildPlan(u, &ev); }, plan);
+  const std::vector<double> knots_us = timed([&] { return model.buildKnots(u, &ev); }, knots);
   if (!tau_file.empty()) {
     std::FILE* f = std::fopen(tau_file.c_str(), "w");
     if (f == nullptr) {
