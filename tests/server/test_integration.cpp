@@ -55,6 +55,38 @@ v1::GetStatsResponse stats(client::PlannerClient& c) {
   return r.response;
 }
 
+// Polls the server's statistics until `pred` holds (false after 30 s): how a test learns that
+// the server has received a call, or started its search, instead of sleeping and hoping.
+template <typename Pred>
+bool serverReaches(client::PlannerClient& c, Pred pred) {
+  const auto until = std::chrono::steady_clock::now() + 30s;
+  while (!pred(stats(c))) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(5ms);
+  }
+  return true;
+}
+
+// A request whose search ends on its 200 evaluations (a few generations), never on its
+// deadline, whatever the planner settings: its answer does not race the clock.
+v1::PlanJumpRequest smallRequest(double v0) {
+  v1::PlanJumpRequest r = standingRequest(v0);
+  r.mutable_budget()->set_max_evaluations(200);
+  return r;
+}
+
+// Waits until `n` of `calls` have their result (false after 30 s).
+bool resultsArrive(std::vector<std::future<client::PlanResult>>& calls, int n) {
+  const auto until = std::chrono::steady_clock::now() + 30s;
+  while (true) {
+    int ready = 0;
+    for (auto& f : calls) ready += f.wait_for(0s) == std::future_status::ready ? 1 : 0;
+    if (ready >= n) return true;
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(5ms);
+  }
+}
+
 // The response is a whole plan: sizes consistent with each other and with the phase times.
 void expectWholePlan(const v1::PlanJumpResponse& r) {
   const auto& p = r.plan();
@@ -388,16 +420,27 @@ TEST(Integration, ConcurrentClientsMixHitsAndMisses) {
   EXPECT_EQ(static_cast<std::uint64_t>(sources["PLAN_SOURCE_COALESCED"]), s.coalesced());
 }
 
+// One search holds the only worker (10^7 evaluations, until the test cancels it), one small
+// miss waits in the queue of one, three more are refused at once; once the holder is cancelled
+// the queued one gets its answer. Nothing here races the clock: the holder lasts as long as the
+// test wants, the others end on their evaluation budget.
 TEST(Integration, FullQueueIsResourceExhausted) {
   TempDir dir("wj-it");
   ServerConfig config = test::testConfig(dir.path());
   config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  config.planner.max_evaluations_cap = 10'000'000;
   config.executor.plan_workers = 1;
   config.executor.plan_queue = 1;
   ServerProcess server(config, dir / "server.yaml");
-  client::PlannerClient c(clientFor(server.target()));
+  client::PlannerClient holder(clientFor(server.target(), 1));
+  client::PlannerClient c(clientFor(server.target(), 1));
+  auto held = holder.planJump(standingRequest(1.5), 60s);
+  ASSERT_TRUE(serverReaches(c, [](const auto& s) { return s.cache_misses() == 1; }));
   std::vector<std::future<client::PlanResult>> calls;
-  for (int i = 0; i < 5; ++i) calls.push_back(c.planJump(standingRequest(0.2 * i), 3000ms));
+  for (int i = 0; i < 4; ++i) calls.push_back(c.planJump(smallRequest(0.2 * i), 60s));
+  ASSERT_TRUE(resultsArrive(calls, 3));  // the refusals, while the holder still runs
+  holder.cancelAll();
+  EXPECT_EQ(held.get().status.error_code(), grpc::StatusCode::CANCELLED);
   int exhausted = 0, ok = 0;
   for (auto& f : calls) {
     const auto r = f.get();
@@ -407,21 +450,29 @@ TEST(Integration, FullQueueIsResourceExhausted) {
     }
     ok += r.ok() ? 1 : 0;
   }
-  EXPECT_GE(exhausted, 3);  // one running, one queued, the rest refused
-  EXPECT_GE(ok, 1);
-  EXPECT_EQ(stats(c).rejected_queue_full(), static_cast<std::uint64_t>(exhausted));
+  EXPECT_EQ(exhausted, 3);  // one running, one queued, the rest refused
+  EXPECT_EQ(ok, 1);         // the queued one, once the worker was free
+  EXPECT_EQ(stats(c).rejected_queue_full(), 3u);
 }
 
+// Two calls that last until the test cancels them hold both places; three more are refused at
+// once. (Should a held call lose the race for a place to a later one, the count is the same.)
 TEST(Integration, CallsInFlightAreBounded) {
   TempDir dir("wj-it");
   ServerConfig config = test::testConfig(dir.path());
   config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
+  config.planner.max_evaluations_cap = 10'000'000;
   config.executor.plan_queue = 64;
   config.limits.max_inflight_calls = 2;
   ServerProcess server(config, dir / "server.yaml");
+  client::PlannerClient holder(clientFor(server.target(), 1));
   client::PlannerClient c(clientFor(server.target(), 1));
   std::vector<std::future<client::PlanResult>> calls;
-  for (int i = 0; i < 5; ++i) calls.push_back(c.planJump(standingRequest(0.2 * i), 2000ms));
+  for (int i = 0; i < 2; ++i) calls.push_back(holder.planJump(standingRequest(1.4 + 0.2 * i), 60s));
+  ASSERT_TRUE(serverReaches(c, [](const auto& s) { return s.requests() == 2; }));
+  for (int i = 0; i < 3; ++i) calls.push_back(c.planJump(smallRequest(0.2 * i), 60s));
+  ASSERT_TRUE(resultsArrive(calls, 3));
+  holder.cancelAll();
   int refused = 0;
   for (auto& f : calls) {
     const auto r = f.get();
@@ -441,19 +492,35 @@ TEST(Integration, TheDeadlineBecomesTheBudget) {
   // Nor may the service's evaluation cap end it: 200,000 mostly invalid (cheap) candidates take
   // ~0.6 s since the evaluation got faster, and the search stopped there, before the deadline.
   config.planner.max_evaluations_cap = 10'000'000;
+  config.executor.plan_workers = 1;
   ServerProcess server(config, dir / "server.yaml");
   client::PlannerClient c(clientFor(server.target()));
-  // A search that would take minutes is cut to fit the client's 1.5 s. No wall-clock bound on
-  // the client's side (a loaded machine may take a few ms more to deliver the completion): an
-  // OK status is the proof that the answer arrived within the deadline, since gRPC ends a call
-  // whose deadline passed with DEADLINE_EXCEEDED. What the server did with the deadline is in
-  // the answer: its search got the budget of 1.5 s, not the minutes its settings allow, and
-  // used most of it.
-  const auto r = plan(c, standingRequest(0.6), 1500ms);
-  ASSERT_TRUE(r.ok()) << r.status.error_message();
-  expectWholePlan(r.response);
-  EXPECT_GT(r.response.stats().de_ms(), 700.0);
-  EXPECT_LT(r.response.stats().de_ms(), 1500.0);
+  // A search that would take minutes (10^7 evaluations) is cut to fit the client's 1.5 s; behind
+  // it on the only worker, a small miss (200 evaluations) with a 5 s deadline gets its answer
+  // only if the deadline ended the long search (else it would wait in the queue past its own).
+  // The verdict does not race the clock: the long call may end OK or, on a machine too loaded
+  // to deliver the answer within the 1.5 s, DEADLINE_EXCEEDED; never a half-written plan. When
+  // OK, the answer says what the server did with the deadline: its search stopped on the clock
+  // (far fewer evaluations than allowed) within the 1.5 s. (That the search uses the time it is
+  // given: MissPipeline.TheTimeLeftBoundsTheSearch.)
+  auto bounded = c.planJump(standingRequest(0.6), 1500ms);
+  ASSERT_TRUE(serverReaches(c, [&](const auto& s) {
+    return s.cache_misses() == 1 || bounded.wait_for(0s) == std::future_status::ready;
+  }));
+  auto next = c.planJump(smallRequest(1.1), 5000ms);
+  const auto r = bounded.get();
+  if (r.ok()) {
+    expectWholePlan(r.response);
+    EXPECT_LT(r.response.stats().evaluations(), 10'000'000u);
+    EXPECT_LT(r.response.stats().de_ms(), 1500.0);
+  } else {
+    EXPECT_EQ(r.status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED)
+        << r.status.error_message();
+    EXPECT_FALSE(r.response.has_plan());
+  }
+  const auto after = next.get();
+  ASSERT_TRUE(after.ok()) << after.status.error_message();
+  expectWholePlan(after.response);
   // No time at all: DEADLINE_EXCEEDED, never a half-written plan.
   const auto none = plan(c, standingRequest(2.2), 5ms);
   EXPECT_EQ(none.status.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
@@ -468,16 +535,17 @@ TEST(Integration, CancellationStopsTheWork) {
   config.executor.plan_workers = 1;
   ServerProcess server(config, dir / "server.yaml");
   client::PlannerClient c(clientFor(server.target()));
+  client::PlannerClient observer(clientFor(server.target()));
   auto slow = c.planJump(standingRequest(0.3), 60s);
-  std::this_thread::sleep_for(500ms);
+  // Cancelled once its search runs (not before it starts, which a fixed sleep cannot tell).
+  ASSERT_TRUE(serverReaches(observer, [](const auto& s) { return s.cache_misses() == 1; }));
   c.cancelAll();
   ASSERT_EQ(slow.wait_for(5s), std::future_status::ready);
   EXPECT_EQ(slow.get().status.error_code(), grpc::StatusCode::CANCELLED);
   // The only plan worker is free: a 5 s call gets its answer within its deadline (an uncancelled
-  // search would hold the worker until its own 60 s deadline). The search of planner_long.yaml
-  // runs until the budget, so a shorter deadline leaves a loaded machine too little time after
-  // it to verify and answer.
-  const auto next = plan(c, standingRequest(1.7), 5000ms);
+  // search of 10^7 evaluations would hold the worker for tens of seconds). Its own search ends
+  // on its 200 evaluations, not on its deadline, so its answer does not race the clock.
+  const auto next = plan(observer, smallRequest(1.7), 5000ms);
   EXPECT_TRUE(next.ok()) << next.status.error_message();
 }
 
@@ -512,7 +580,7 @@ TEST(Integration, SigtermFinishesInFlightCallsAndFlushesTheCache) {
   TempDir dir("wj-it");
   ServerConfig config = test::testConfig(dir.path());
   config.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";
-  config.shutdown_grace_s = 10.0;
+  config.shutdown_grace_s = 60.0;  // the call in flight ends on its evaluations, not the grace
   std::string key;
   {
     ServerProcess server(config, dir / "server.yaml");
@@ -523,9 +591,15 @@ TEST(Integration, SigtermFinishesInFlightCallsAndFlushesTheCache) {
     const auto first = plan(c, bounded, 10s);
     ASSERT_TRUE(first.ok()) << first.status.error_message();
     key = first.response.stats().cache_key();
-    // ... and a call in flight when SIGTERM arrives, whose search runs to its deadline.
-    auto in_flight = c.planJump(standingRequest(0.8), 2500ms);
-    std::this_thread::sleep_for(300ms);
+    // ... and a call in flight when SIGTERM arrives: its search (10^5 evaluations, a fraction
+    // of a second on an idle machine) has started and not ended. It ends on its evaluations, not
+    // on its deadline, so that its answer does not race the clock.
+    v1::PlanJumpRequest longer = standingRequest(0.8);
+    longer.mutable_budget()->set_max_evaluations(100'000);
+    auto in_flight = c.planJump(longer, 60s);
+    client::PlannerClient observer(clientFor(server.target(), 1));
+    ASSERT_TRUE(serverReaches(observer, [](const auto& s) { return s.cache_misses() == 2; }));
+    ASSERT_NE(in_flight.wait_for(0s), std::future_status::ready);
     server.signal(SIGTERM);
     const auto r = in_flight.get();
     ASSERT_TRUE(r.ok()) << r.status.error_message();  // finished, not dropped

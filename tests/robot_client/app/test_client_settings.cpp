@@ -6,8 +6,12 @@
 #include <string>
 
 #include "error_of.h"
+#include "planner/jump_planner.h"
+#include "planner/planner_settings.h"
+#include "planner/presets.h"
 #include "robot_client/client_settings.h"
 #include "robot_client/plan_requester.h"
+#include "robot_model/robot_model.h"
 
 namespace wj::robot_client {
 namespace {
@@ -120,6 +124,32 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(low, "x.yaml"); }),
       test::HasSubstr("scenarios.platform.target.com_height_m"));
+}
+
+// A touchdown target's CoM height is where the planner's own presets put it: the CoM of the robot
+// standing on the ground in the landing posture (JumpModel::standingComHeight, the planner's
+// z_land), plus the platform's top and its hind-wheel drop when the robot lands on one. Computed
+// here with the service's planner settings (config/planner_settings.yaml, as
+// config/planner_server.yaml names them) on the robot of actuators.yaml, so that a change of the
+// landing posture, of the model or of the config shows. The shipped forward and course targets
+// were 0.266 m until session 16: a touchdown base height of 0.36 m less the CoM's 0.094 m offset
+// (the scenario's first form), 2.6 mm below z_land (0.26856 m), as if the wheels were to land
+// 2.6 mm below the ground.
+TEST(ClientSettings, TouchdownTargetsAreThePlannersLandingHeight) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  const planner::JumpPlanner planner(
+      model::RobotModel::loadDefault(),
+      planner::PlannerSettings::fromYaml(std::string(WJ_CONFIG_DIR) + "/planner_settings.yaml"));
+  const double z_land = planner::makePreset(planner, "forward").task.target.height;
+  const double on_platform = planner::makePreset(planner, "platform").task.target.height;
+  ASSERT_GT(z_land, 0.2);
+  constexpr double kTolerance = 0.5e-3;  // the config's values are given to 0.1-1 mm
+  for (const char* name : {"forward", "course"}) {
+    const ScenarioSettings& sc = s.scenario(name);
+    EXPECT_EQ(sc.event, planner::TargetEvent::Touchdown) << name;
+    EXPECT_NEAR(sc.target_com_height_m, z_land, kTolerance) << name;
+  }
+  EXPECT_NEAR(s.scenario("platform").target_com_height_m, on_platform, kTolerance);
 }
 
 TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {
