@@ -311,25 +311,35 @@ json loopJson(const ClosedLoop& r) {
 // The transport's own cost on this machine, the peer of the hit figures: the same clients on
 // their own connections calling GetStats (answered in the service's reactor, no planning, a
 // ~150-byte response) as fast as they can for `seconds`.
-json benchGrpcFloor(Server& server, int clients, double seconds) {
-  json j = loopJson(runClosedLoop(
-      server, clients, seconds, "wj.bench.floor_client", [](v1::JumpPlanner::Stub& stub, int) {
-        grpc::ClientContext ctx;
-        ctx.set_deadline(std::chrono::system_clock::now() + 5s);
-        thread_local ArenaResponse<v1::GetStatsResponse> response;
-        return stub.GetStats(&ctx, v1::GetStatsRequest{}, response.fresh()).ok();
-      }));
-  j["rpc"] = "GetStats";
-  // The same with callback-API clients (no client thread per call in flight).
+ClosedLoop runFloorSync(Server& server, int clients, double seconds) {
+  return runClosedLoop(server, clients, seconds, "wj.bench.floor_client",
+                       [](v1::JumpPlanner::Stub& stub, int) {
+                         grpc::ClientContext ctx;
+                         ctx.set_deadline(std::chrono::system_clock::now() + 5s);
+                         thread_local ArenaResponse<v1::GetStatsResponse> response;
+                         return stub.GetStats(&ctx, v1::GetStatsRequest{}, response.fresh()).ok();
+                       });
+}
+
+// The same with callback-API clients (no client thread per call in flight).
+ClosedLoop runFloorCallback(Server& server, int clients, double seconds) {
   std::vector<ArenaResponse<v1::GetStatsResponse>> responses(static_cast<std::size_t>(clients));
   const v1::GetStatsRequest request;
-  j["callback_clients"] = loopJson(runCallbackLoop(
+  return runCallbackLoop(
       server, clients, seconds, "wj.bench.floor_callback",
       [&](v1::JumpPlanner::Stub& stub, grpc::ClientContext* ctx, int i, auto done) {
         stub.async()->GetStats(ctx, &request, responses[static_cast<std::size_t>(i)].fresh(),
                                [done](const grpc::Status& s) { done(s.ok()); });
-      }));
-  return j;
+      });
+}
+
+// Appends one round's timed part to the loop's total.
+void append(ClosedLoop& total, const ClosedLoop& round) {
+  total.ms.insert(total.ms.end(), round.ms.begin(), round.ms.end());
+  total.elapsed_s += round.elapsed_s;
+  total.server_cpu_ms += round.server_cpu_ms;
+  total.client_cpu_ms += round.client_cpu_ms;
+  total.errors += round.errors;
 }
 
 }  // namespace
@@ -377,31 +387,57 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
       bytes_max{0};
   std::vector<long> answered(static_cast<std::size_t>(clients), 0);
   std::vector<ArenaResponse<v1::PlanJumpResponse>> responses(static_cast<std::size_t>(clients));
-  const ClosedLoop loop = runClosedLoop(
-      server, clients, seconds, "wj.bench.client", [&](v1::JumpPlanner::Stub& stub, int i) {
-        auto& slot = responses[static_cast<std::size_t>(i)];
-        grpc::ClientContext ctx;
-        ctx.set_deadline(std::chrono::system_clock::now() + 5s);
-        const bool first = answered[static_cast<std::size_t>(i)]++ == 0;
-        const grpc::Status s = stub.PlanJump(
-            &ctx, first ? generators[static_cast<std::size_t>(i)].centre() : nextRequest(i),
-            slot.fresh());
-        const v1::PlanJumpResponse& response = slot.get();
-        if (!s.ok() || first) return s.ok();
-        if (response.source() != v1::PLAN_SOURCE_CACHE_HIT || !useResponse(response)) ++not_hits;
-        if (response.ready_response()) ++ready;
-        if (answered[static_cast<std::size_t>(i)] % 16 != 2) return true;  // every 16th: sized
-        ++sized;
-        const auto n = static_cast<long>(response.ByteSizeLong());
-        bytes_total += n;
-        long seen = bytes_min.load();
-        while (n < seen && !bytes_min.compare_exchange_weak(seen, n)) {
-        }
-        seen = bytes_max.load();
-        while (n > seen && !bytes_max.compare_exchange_weak(seen, n)) {
-        }
-        return true;
-      });
+  const auto hitCall = [&](v1::JumpPlanner::Stub& stub, int i) {
+    auto& slot = responses[static_cast<std::size_t>(i)];
+    grpc::ClientContext ctx;
+    ctx.set_deadline(std::chrono::system_clock::now() + 5s);
+    const bool first = answered[static_cast<std::size_t>(i)]++ == 0;
+    const grpc::Status s = stub.PlanJump(
+        &ctx, first ? generators[static_cast<std::size_t>(i)].centre() : nextRequest(i),
+        slot.fresh());
+    const v1::PlanJumpResponse& response = slot.get();
+    if (!s.ok() || first) return s.ok();
+    if (response.source() != v1::PLAN_SOURCE_CACHE_HIT || !useResponse(response)) ++not_hits;
+    if (response.ready_response()) ++ready;
+    if (answered[static_cast<std::size_t>(i)] % 16 != 2) return true;  // every 16th: sized
+    ++sized;
+    const auto n = static_cast<long>(response.ByteSizeLong());
+    bytes_total += n;
+    long seen = bytes_min.load();
+    while (n < seen && !bytes_min.compare_exchange_weak(seen, n)) {
+    }
+    seen = bytes_max.load();
+    while (n > seen && !bytes_max.compare_exchange_weak(seen, n)) {
+    }
+    return true;
+  };
+  std::atomic<long> callback_not_hits{0}, callback_ready{0};
+  const auto hitCallback = [&](v1::JumpPlanner::Stub& stub, grpc::ClientContext* ctx, int i,
+                               auto done) {
+    v1::PlanJumpResponse* answer = responses[static_cast<std::size_t>(i)].fresh();
+    stub.async()->PlanJump(
+        ctx, &nextRequest(i), answer,
+        [done, &response = *answer, &callback_not_hits, &callback_ready](const grpc::Status& s) {
+          if (s.ok() && (response.source() != v1::PLAN_SOURCE_CACHE_HIT || !useResponse(response)))
+            ++callback_not_hits;
+          if (s.ok() && response.ready_response()) ++callback_ready;
+          done(s.ok());
+        });
+  };
+  // The hits and the empty RPC, from synchronous and from callback clients, alternate in
+  // `kRounds` short rounds on the same server, so that the VM's steal and any other load land in
+  // all four alike (one after the other, 5 s each, a callback ratio ranged 0.44-1.20 over three
+  // idle runs). Each figure is over its rounds together.
+  constexpr int kRounds = 10;
+  const double round_s = seconds / kRounds;
+  ClosedLoop loop, callback, floor_sync, floor_callback;
+  for (int r = 0; r < kRounds; ++r) {
+    append(loop, runClosedLoop(server, clients, round_s, "wj.bench.client", hitCall));
+    append(floor_sync, runFloorSync(server, clients, round_s));
+    append(callback,
+           runCallbackLoop(server, clients, round_s, "wj.bench.client_callback", hitCallback));
+    append(floor_callback, runFloorCallback(server, clients, round_s));
+  }
   const long sampled = sized.load();
   const double throughput = static_cast<double>(loop.ms.size()) / loop.elapsed_s;
   json j = loopJson(loop);
@@ -420,25 +456,13 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
   j["meets_throughput_target"] = throughput >= 10000.0;
   // The same hits from callback-API clients (no client thread per call in flight): what the
   // service answers when the clients cost less, against the floor's callback_clients.
-  std::atomic<long> callback_not_hits{0}, callback_ready{0};
-  const ClosedLoop callback = runCallbackLoop(
-      server, clients, seconds, "wj.bench.client_callback",
-      [&](v1::JumpPlanner::Stub& stub, grpc::ClientContext* ctx, int i, auto done) {
-        v1::PlanJumpResponse* answer = responses[static_cast<std::size_t>(i)].fresh();
-        stub.async()->PlanJump(ctx, &nextRequest(i), answer,
-                               [done, &response = *answer, &callback_not_hits,
-                                &callback_ready](const grpc::Status& s) {
-                                 if (s.ok() && (response.source() != v1::PLAN_SOURCE_CACHE_HIT ||
-                                                !useResponse(response)))
-                                   ++callback_not_hits;
-                                 if (s.ok() && response.ready_response()) ++callback_ready;
-                                 done(s.ok());
-                               });
-      });
   j["callback_clients"] = loopJson(callback);
   j["callback_clients"]["not_hits"] = callback_not_hits.load();
   j["callback_clients"]["ready_responses"] = callback_ready.load();
-  j["grpc_floor"] = benchGrpcFloor(server, clients, seconds);
+  j["rounds"] = kRounds;
+  j["grpc_floor"] = loopJson(floor_sync);
+  j["grpc_floor"]["rpc"] = "GetStats";
+  j["grpc_floor"]["callback_clients"] = loopJson(floor_callback);
   return j;
 }
 
