@@ -166,7 +166,8 @@ TEST_P(DirectIntegration, ForcePolynomialsReproduceTheSampledStates) {
   EXPECT_NEAR(td.z, D[7], 2e-3);
   // The flight attitude includes the legs' momentum (checked by the angular momentum test);
   // this rigid-body integration only checks the ballistic CoM through the flight.
-  EXPECT_NEAR(td.z, m.landingHeight(), 2e-3);  // t3 is the touchdown by construction
+  // t3 is the first wheel down, no later than the CoM at the standing height.
+  EXPECT_GE(td.z, m.landingHeight() - 2e-3);
 }
 
 INSTANTIATE_TEST_SUITE_P(Modes, DirectIntegration,
