@@ -4,10 +4,12 @@
 # then N seeds of the jump onto the 0.25 m platform (simulated robot), then N seeds of the
 # course (two walls 10 m apart, jumped in turn), then the vertical jump, then N seeds of the
 # backflip (rolling backward at 1 m/s, against a second service on the 57 Nm-knee robot of
-# the scenario's actuators_file; docs/backflip.md).
+# the scenario's actuators_file; docs/backflip.md), then N seeds of the same flip on the real
+# 42 Nm robot (backflip_42nm, a third service with config/backflip-42nm-client.yaml's settings).
 # Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
-# WJ_BENCH_SCENARIOS (space-separated, default all: forward platform course vertical backflip)
+# WJ_BENCH_SCENARIOS (space-separated, default all: forward platform course vertical backflip
+# backflip_42nm)
 # runs only those, e.g. WJ_BENCH_SCENARIOS=backflip for the flip's seeds alone.
 set -euo pipefail
 # DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
@@ -22,10 +24,10 @@ PORT=${WJ_BENCH_PORT:-50161}
 source scripts/planner-server.sh
 trap 'stop_planner_server; rm -rf "$WORK"' EXIT
 EXTRA=("$@")  # extra robot_client options, passed to every run
-SCENARIOS=${WJ_BENCH_SCENARIOS:-forward platform course vertical backflip}
+SCENARIOS=${WJ_BENCH_SCENARIOS:-forward platform course vertical backflip backflip_42nm}
 for s in $SCENARIOS; do
-  case $s in forward | platform | course | vertical | backflip) ;;
-    *) echo "bench-e2e: WJ_BENCH_SCENARIOS: '$s' is not one of forward platform course vertical backflip" >&2
+  case $s in forward | platform | course | vertical | backflip | backflip_42nm) ;;
+    *) echo "bench-e2e: WJ_BENCH_SCENARIOS: '$s' is not one of forward platform course vertical backflip backflip_42nm" >&2
        exit 2 ;;
   esac
 done
@@ -60,6 +62,14 @@ if wanted backflip; then
   start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_57nm.sqlite" \
     "$WORK/planner_server_57nm.yaml" "$WORK/server_57nm.log" actuators-57nm.yaml
   run_seeds backflip
+fi
+# The real robot's flip (42 Nm): its planner settings file, same port.
+if wanted backflip_42nm; then
+  stop_planner_server
+  start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_42nm_flip.sqlite" \
+    "$WORK/planner_server_42nm_flip.yaml" "$WORK/server_42nm_flip.log" actuators.yaml \
+    config/backflip-42nm-client.yaml
+  run_seeds backflip_42nm
 fi
 /usr/bin/python3 - "$WORK" "$SEEDS" "$SCENARIOS" <<'PY'
 import json, sys, statistics
@@ -123,8 +133,10 @@ if "vertical" in wanted:
                        "apex_base_z_m": v.get("simulated", {}).get("apex_base_z_m"),
                        "planned_apex_base_z_m": v["plan"]["predicted_apex_base_z_m"],
                        "paper_hardware_m": 0.5, "paper_target_m": 0.7}
-if "backflip" in wanted:
-    backflip = per_seed("backflip", lambda d, sim: {
+for flip in ("backflip", "backflip_42nm"):
+    if flip not in wanted:
+        continue
+    backflip = per_seed(flip, lambda d, sim: {
         "actuators_file": d.get("actuators_file"),
         "touchdown_rotation_rad": sim.get("touchdown_rotation_rad"),
         "final_rotation_rad": sim.get("final_rotation_rad"),
@@ -134,9 +146,9 @@ if "backflip" in wanted:
         "knee_torque_nm": d["max_torque"]["KFE"]["max_nm"],
         "knee_limit_nm": d["max_torque"]["KFE"]["limit_nm"],
         "plan_verification": d["plan"]["verification"],
-        "plan_latency_ms": d["plan"]["latency_ms"],
+        "plan_latency_ms": d["plan"]["latency_ms"], "plan_source": d["plan"]["source"],
         "transitions": [t["to"] for t in d.get("transitions", [])]})
-    out["backflip"] = {"seeds": seeds, "success": sum(1 for r in backflip if r.get("success")),
-                       "target_rotation_rad": 6.283, "runs": backflip}
+    out[flip] = {"seeds": seeds, "success": sum(1 for r in backflip if r.get("success")),
+                 "target_rotation_rad": 6.283, "runs": backflip}
 print(json.dumps(out, indent=2))
 PY

@@ -1,12 +1,14 @@
 # Sourced by the run and bench scripts and the e2e tests: starts the planning service on loopback.
 # shellcheck shell=bash
 #
-#   start_planner_server BIN PORT CACHE_FILE CONFIG_OUT LOG [ACTUATORS_FILE]
+#   start_planner_server BIN PORT CACHE_FILE CONFIG_OUT LOG [ACTUATORS_FILE [SETTINGS_FILE]]
 #
 # writes the shipped config/planner_server.yaml listening on 127.0.0.1:PORT with its cache at
 # CACHE_FILE and its planner settings file found in the repository's config/ (and, if given,
 # the robot of ACTUATORS_FILE in the models folder, e.g. actuators-57nm.yaml for the backflip,
-# with the planner's default settings) to CONFIG_OUT, starts BIN/planner_server in the
+# with the planner's default settings, or with SETTINGS_FILE, a planner settings file named
+# from the repository's root, e.g. config/backflip-42nm.yaml) to CONFIG_OUT, starts
+# BIN/planner_server in the
 # background (its pid in SERVER, stopped by stop_planner_server) and waits up to 10 s until it
 # answers.
 
@@ -14,14 +16,16 @@
 WJ_PLANNER_SERVER_SH_DIR=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 
 start_planner_server() {
-  local bin=$1 port=$2 cache=$3 config=$4 log=$5 actuators=${6:-}
+  local bin=$1 port=$2 cache=$3 config=$4 log=$5 actuators=${6:-} settings=${7:-}
   local robot=()
   # Another robot (the backflip's 57 Nm knee) plans with the planner's defaults: the shipped
   # settings file (a wall's margin, the flight tuck) was measured for the wall jumps of
   # actuators.yaml, and its tuck leaves the standing flip without a plan (docs/robust.md).
   if [ -n "$actuators" ]; then
+    local with=""
+    if [ -n "$settings" ]; then with="${WJ_PLANNER_SERVER_SH_DIR}/../${settings}"; fi
     robot=(-e "s|^actuators_file: .*|actuators_file: ${actuators}|"
-           -e "s|^  settings_file: .*|  settings_file: \"\"|")
+           -e "s|^  settings_file: .*|  settings_file: \"${with}\"|")
   fi
   # The shipped settings_file is beside the shipped config (a relative path is resolved against
   # the config's folder); the config is written elsewhere, so the path is made absolute here.

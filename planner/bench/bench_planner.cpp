@@ -10,8 +10,11 @@
 //  - backflip: the knee peak-torque sweep (42, 47, 52, 57 Nm): cold backflip solves per knee
 //    torque, the smallest torque at which a flip is planned (docs/backflip.md).
 // Usage: bench_planner [--quick] [--only cold|warm|grid|pagmo|backflip|polish_ab]
-//                      [--polish-solver sqp|ipopt] [--actuators FILE] > result.json
+//                      [--polish-solver sqp|ipopt] [--actuators FILE] [--config FILE]
+//                      > result.json
 // --actuators: the actuator file of the robot (models folder), e.g. actuators-57nm.yaml.
+// --config: planner settings YAML in place of the defaults (--polish-solver still applies), e.g.
+// config/backflip-42nm.yaml for the 42 Nm flip's cold solves (--only backflip).
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -104,8 +107,9 @@ json runPagmo(const std::string& algo, const JumpPlanner& planner, const Scenari
 int main(int argc, char** argv) {
   bool quick = false;
   std::string only;
-  std::string actuators = wj::model::kDefaultActuatorsFile;
+  std::string actuators = wj::model::kDefaultActuatorsFile, config;
   PolishSolver solver = PlannerSettings{}.polish_solver;
+  bool solver_given = false;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) {
       quick = true;
@@ -120,6 +124,8 @@ int main(int argc, char** argv) {
       }
     } else if (std::strcmp(argv[i], "--actuators") == 0 && i + 1 < argc) {
       actuators = argv[++i];
+    } else if (std::strcmp(argv[i], "--config") == 0 && i + 1 < argc) {
+      config = argv[++i];
     } else if (std::strcmp(argv[i], "--polish-solver") == 0 && i + 1 < argc) {
       const std::string name = argv[++i];
       if (name != "sqp" && name != "ipopt") {
@@ -127,10 +133,11 @@ int main(int argc, char** argv) {
         return 2;
       }
       solver = name == "sqp" ? PolishSolver::Sqp : PolishSolver::Ipopt;
+      solver_given = true;
     } else {
       std::cerr << "usage: bench_planner [--quick] "
                    "[--only cold|warm|grid|pagmo|backflip|polish_ab] [--polish-solver sqp|ipopt] "
-                   "[--actuators FILE]\n";
+                   "[--actuators FILE] [--config FILE]\n";
       return 2;
     }
   }
@@ -139,12 +146,13 @@ int main(int argc, char** argv) {
   };
   const int runs = quick ? 3 : 10;
   const int grid_seeds = quick ? 3 : 10;
-  PlannerSettings settings;
-  settings.polish_solver = solver;
+  PlannerSettings settings = config.empty() ? PlannerSettings{} : PlannerSettings::fromYaml(config);
+  if (solver_given) settings.polish_solver = solver;
   const JumpPlanner planner(wj::model::RobotModel::loadDefault(actuators), settings);
   json out;
   out["actuators_file"] = actuators;
-  out["polish_solver"] = toString(solver);
+  out["planner_settings_file"] = config.empty() ? json("defaults") : json(config);
+  out["polish_solver"] = toString(settings.polish_solver);
   out["machine_threads"] = static_cast<int>(std::thread::hardware_concurrency());
   // libgomp reads it at start-up: spinning (the default) or sleeping at the DE's barriers.
   const char* wait_policy = std::getenv("OMP_WAIT_POLICY");

@@ -146,11 +146,12 @@ void emitContact(const JumpModelConstants& M, const Sample& smp, Sink& sink) {
       return std::min(m, std::min(p.q_stop[j] - lim[0], lim[1] - p.q_stop[j]) - clearance);
     };
     sink(ConstraintClass::JointPosition, within(0, M.lim_hfe), smp.t, base + 1);
-    // A backflip's hind knee pushes kFlipHindKneeClearance short of its extension stop.
+    // A backflip's hind knee pushes settings.flip_hind_knee_clearance_rad short of its stop.
     const bool flip_knee = pair == 0 && p.contact && M.task.isBackflip();
     sink(ConstraintClass::JointPosition,
-         std::min(within(1, M.lim_kfe),
-                  flip_knee ? M.lim_kfe[1] - kFlipHindKneeClearance - p.q[1] : kInf),
+         std::min(
+             within(1, M.lim_kfe),
+             flip_knee ? M.lim_kfe[1] - M.settings.flip_hind_knee_clearance_rad - p.q[1] : kInf),
          smp.t, base + 2);
     sink(ConstraintClass::JointSpeed, M.env_hfe.speedMargin(p.qd[0]), smp.t, base + 1);
     sink(ConstraintClass::JointSpeed, M.env_kfe.speedMargin(p.qd[1]), smp.t, base + 2);

@@ -219,20 +219,22 @@ double JointBrake::torqueAt(double tau) const {
   return -sign * torque * (w_nl - w0) * std::exp(lambda * tau) / (w_nl - w_a);
 }
 
-// Each joint brakes with kBrakeTorqueShare of its drive's torque. Its deceleration is that of
+// Each joint brakes with torque_share of its drive's torque (kBrakeTorqueShare; a backflip's
+// front pair at t1 settings.flip_front_brake_share). Its deceleration is that of
 // the leg as a fixed-base two-link arm (at the start's knee angle) under both joints' braking
 // torques, M^-1 tau: when the legs extend, hip and knee turn opposite ways and each joint's
 // torque also slows the other; where it would not (a joint turning the other way), the joint's
 // own share, tau / (M^-1)_jj^-1. This leaves out that the body gives way in flight (Simbody's
 // knees stop faster at the same torque) and that the help ends when the other joint is at rest.
 std::array<JointBrake, 2> startBrake(const JumpModelConstants& M, int pair,
-                                     const Eigen::Vector2d& q, const Eigen::Vector2d& qd) {
+                                     const Eigen::Vector2d& q, const Eigen::Vector2d& qd,
+                                     double torque_share) {
   const JumpModelConstants::LegInertia& li = M.leg_inertia[pair];
   const double cross = li.m_l1_c * std::cos(q[1]);
   const double m11 = li.i_hip + 2.0 * cross, m12 = li.i_knee + cross, m22 = li.i_knee;
   const double det = m11 * m22 - m12 * m12;
-  const double tau_hfe = kBrakeTorqueShare * M.env_hfe.peak_torque_nm;
-  const double tau_kfe = kBrakeTorqueShare * M.env_kfe.peak_torque_nm;
+  const double tau_hfe = torque_share * M.env_hfe.peak_torque_nm;
+  const double tau_kfe = torque_share * M.env_kfe.peak_torque_nm;
   // Braking torques (against each joint's motion) and the decelerations they give.
   const double t1 = qd[0] < 0.0 ? tau_hfe : -tau_hfe, t2 = qd[1] < 0.0 ? tau_kfe : -tau_kfe;
   const double a1 = (m22 * t1 - m12 * t2) / det, a2 = (m11 * t2 - m12 * t1) / det;
@@ -242,6 +244,10 @@ std::array<JointBrake, 2> startBrake(const JumpModelConstants& M, int pair,
   b[0].start(q[0], qd[0], d1, tau_hfe, M.env_hfe);
   b[1].start(q[1], qd[1], d2, tau_kfe, M.env_kfe);
   return b;
+}
+
+double frontLiftBrakeShare(const JumpModelConstants& M) {
+  return M.task.isBackflip() ? M.settings.flip_front_brake_share : kBrakeTorqueShare;
 }
 
 Eigen::Vector2d brakeTorque(const std::array<JointBrake, 2>& b, double tau) {

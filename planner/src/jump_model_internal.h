@@ -34,11 +34,6 @@ inline constexpr double kBrakeLimitClearance = 0.03;
 /// past the stop the fixed-base brake model (startBrake) gives them, onto the HFE's range
 /// (docs/backflip.md, "Session 13").
 inline constexpr double kFlipHindHipClearance = 0.2;
-/// ... and a backflip's hind knee (KFE) from its extension stop while the hind wheels push
-/// [rad]: a 42 Nm flip whose hind knee straightened to 0.008 rad from the stop in the hind-only
-/// push chattered in Simbody (the knee at the stop, then +-42 Nm at ~100 Hz against the
-/// take-off gains, the wheel bouncing) and turned 5.70 rad (docs/backflip.md, "A 42 Nm flip").
-inline constexpr double kFlipHindKneeClearance = 0.1;
 
 /// One joint braking from its speed at a lift-off to rest (docs/planner.md, "Flight: the legs
 /// brake"): at `decel` up to the drive's corner speed and above it at the same share of the
@@ -227,7 +222,11 @@ Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int 
 double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int j);
 // The pair's braking from (q, qd) at its lift-off (the leg's inertia, the drives' envelopes).
 std::array<JointBrake, 2> startBrake(const JumpModelConstants& M, int pair,
-                                     const Eigen::Vector2d& q, const Eigen::Vector2d& qd);
+                                     const Eigen::Vector2d& q, const Eigen::Vector2d& qd,
+                                     double torque_share = kBrakeTorqueShare);
+// The torque share a two-step take-off's front pair brakes with at its lift-off (t1): a
+// backflip's settings.flip_front_brake_share, otherwise kBrakeTorqueShare.
+double frontLiftBrakeShare(const JumpModelConstants& M);
 // (HFE, KFE) of a braking pair at time tau after the start, and its rate if `qd`.
 Eigen::Vector2d brakePosture(const std::array<JointBrake, 2>& b, double tau, Eigen::Vector2d* qd);
 // The braking torques of a pair at time tau after the start (the joint controllers' feed-forward).

@@ -8,9 +8,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Geometry>
-
 #include "jump_model_internal.h"
+#include "jump_model_stance_dynamics.h"
 #include "planner/plan_knots.h"
 
 namespace wj::planner {
@@ -40,144 +39,10 @@ Segment segmentAt(const Solved& S, double t) {
   return S.two_step && t > S.t1 ? Segment::HindOnly : Segment::FourWheels;
 }
 
-// The legs' own dynamics in the take-off (issue 22, session 13; docs/planner.md, "Stance
-// torques"). The statics torques balance the ground force with massless links; but 12 of the
-// 22.5 kg are legs and wheels, which accelerate with the push (the knees at up to ~1,000
-// rad/s^2 before the lift-off): without their inertia and weight in the feed-forward the joints
-// tracked the plan's speeds 2-4 % short at t2, which left Simbody's angular momentum there
-// 0.1-0.17 kg m^2/s below the plan's. For each leg of a pair in contact, the Newton-Euler
-// balance of the links below each joint about its axis (Featherstone 2008, Sec. 5.3, summed
-// over the subtree instead of recursed):
-//   tau_j = a_j . [sum_i ((p_i - o_j) x m_i (a_i + g z) + I_i phi_i'' y) - (p_c - o_j) x f_c],
-// with the links' CoM accelerations a_i and pitch accelerations phi_i'' from a second
-// difference of the contact samples at t - h, t, t + h (kept inside the segment), the wheel's
-// spin from the difference of its rate, and f_c the wheel's share of its pair's force at p_c,
-// below the axle. The links' pitch inertia only (planar motion).
-constexpr double kDynamicsStep = 1e-3;  // the difference's step [s]
-
-struct LinkMotion {
-  std::vector<Eigen::Isometry3d> X_W;  // link frames in J (wheel angles zero)
-  std::array<double, 2> wheel_rate{};  // hind, front
-  Joints q = Joints::Zero();
-};
-
-LinkMotion linkMotion(const JumpModelConstants& M, const Sample& smp) {
-  LinkMotion out;
-  for (const model::Leg leg : model::kLegs) {
-    const PairSample& p = model::isFront(leg) ? smp.front : smp.hind;
-    const int haa = model::jointIndex(leg, model::JointKind::HAA);
-    out.q[haa] = M.init_input.q[haa];
-    out.q[haa + 1] = p.q[0];
-    out.q[haa + 2] = p.q[1];
-  }
-  out.wheel_rate = {smp.hind.wheel_rate, smp.front.wheel_rate};
-  const Eigen::Matrix3d R =
-      Eigen::AngleAxisd(-smp.s.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
-  X_WB.linear() = R;
-  // The base from the CoM and the sample's CoM offset c(q) (the URDF's composite CoM, tested).
-  X_WB.translation() =
-      Eigen::Vector3d(smp.s.x, 0.0, smp.s.z) - R * Eigen::Vector3d(smp.c.x(), 0.0, smp.c.y());
-  out.X_W = M.robot.calcLinkPoses(out.q);
-  for (Eigen::Isometry3d& X : out.X_W) X = X_WB * X;
-  return out;
-}
-
-// The last stencil points' link motions: buildPlan's rows are kDynamicsStep apart, so each row
-// needs one new contact sample instead of three.
-struct DynamicsCache {
-  std::array<double, 3> t{-1.0, -1.0, -1.0};
-  std::array<Segment, 3> segment{};
-  std::array<LinkMotion, 3> motion;
-  int next = 0;
-
-  const LinkMotion* find(double time, Segment seg) const {
-    for (int i = 0; i < 3; ++i)
-      if (segment[i] == seg && std::abs(t[i] - time) < 1e-12) return &motion[i];
-    return nullptr;
-  }
-  void put(double time, Segment seg, const LinkMotion& m) {
-    t[next] = time;
-    segment[next] = seg;
-    motion[next] = m;
-    next = (next + 1) % 3;
-  }
-};
-
-// Nose-down rotation angle of a link frame about y [rad].
-double linkAngle(const Eigen::Isometry3d& X) {
-  return std::atan2(X.linear()(0, 2), X.linear()(0, 0));
-}
-
-void addLegDynamics(const JumpModelConstants& M, const Solved& S, double t, Segment segment,
-                    const Sample& smp, Eigen::Vector2d c_guess, DynamicsCache* cache,
-                    PlanRow& out) {
-  const double a = segment == Segment::HindOnly ? S.t1 : 0.0;
-  const double b = segment == Segment::FourWheels && S.two_step ? S.t1 : S.t2;
-  const double h = std::min(kDynamicsStep, 0.5 * (b - a));
-  if (h <= 0.0) return;
-  const double t0 = std::clamp(t - h, a, b - 2.0 * h);  // the stencil t0, t0 + h, t0 + 2h
-  const bool hind_only = segment == Segment::HindOnly;
-  std::array<LinkMotion, 3> lm;
-  for (int i = 0; i < 3; ++i) {
-    const double ti = t0 + i * h;
-    if (const LinkMotion* hit = cache ? cache->find(ti, segment) : nullptr) {
-      lm[i] = *hit;
-      continue;
-    }
-    if (std::abs(ti - t) < 1e-12) {
-      lm[i] = linkMotion(M, smp);
-    } else {
-      Sample other;
-      contactSample(M, S, ti, other, hind_only, c_guess, /*converge=*/true);
-      lm[i] = linkMotion(M, other);
-    }
-    if (cache) cache->put(ti, segment, lm[i]);
-  }
-  const LinkMotion now = std::abs(t0 + h - t) < 1e-12 ? lm[1] : linkMotion(M, smp);
-  const auto& links = M.robot.links();
-  const Eigen::Vector3d g(0.0, 0.0, M.settings.gravity);
-  for (const model::Leg leg : model::kLegs) {
-    const int pair = model::isFront(leg) ? 1 : 0;
-    const PairSample& p = pair == 1 ? smp.front : smp.hind;
-    if (!p.contact) continue;
-    const int haa = model::jointIndex(leg, model::JointKind::HAA);
-    const int wheel_link = M.robot.joints()[haa + 3].child_link;
-    const Eigen::Vector3d p_c =
-        now.X_W[wheel_link].translation() - Eigen::Vector3d(0.0, 0.0, M.wheel_radius);
-    const Eigen::Vector3d f_c(p.f.x(), 0.0, p.f.y());
-    const double wheel_acc = (lm[2].wheel_rate[pair] - lm[0].wheel_rate[pair]) / (2.0 * h);
-    const model::JointSpec& wheel = M.robot.joints()[haa + 3];
-    const Eigen::Vector3d wheel_axis =
-        (now.X_W[wheel.parent_link] * wheel.X_PJ).linear() * wheel.axis;
-    for (int m = 0; m < 4; ++m) {
-      const model::JointSpec& joint = M.robot.joints()[haa + m];
-      // The joint's frame: its parent link's frame times X_PJ.
-      const Eigen::Isometry3d X_J = now.X_W[joint.parent_link] * joint.X_PJ;
-      const Eigen::Vector3d o = X_J.translation(), axis = X_J.linear() * joint.axis;
-      Eigen::Vector3d moment = -(p_c - o).cross(f_c);
-      for (int n = m; n < 4; ++n) {
-        const int li = M.robot.joints()[haa + n].child_link;
-        const model::Inertia& in = links[li].inertia;
-        auto com = [&](int i) { return Eigen::Vector3d(lm[i].X_W[li] * in.com); };
-        const Eigen::Vector3d acc = (com(2) - 2.0 * com(1) + com(0)) / (h * h);
-        // The angles' differences wrapped: a flip's links pass +-pi (atan2's cut).
-        const double a0 = linkAngle(lm[0].X_W[li]), a1 = linkAngle(lm[1].X_W[li]);
-        const double phi_dd =
-            (wrapToPi(linkAngle(lm[2].X_W[li]) - a1) - wrapToPi(a1 - a0)) / (h * h);
-        moment += (now.X_W[li] * in.com - o).cross(in.mass * (acc + g));
-        moment += in.inertia_com(1, 1) * phi_dd * Eigen::Vector3d::UnitY();
-        if (n == 3) moment += in.inertia_com(1, 1) * wheel_acc * wheel_axis;
-      }
-      out.tau[haa + m] = axis.dot(moment);
-    }
-  }
-}
-
 // The references at time t in `segment` (the segment's own values at its boundaries).
 // `c_guess` warm-starts the contact sample's CoM-offset iteration and is updated.
-void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment segment,
-             Eigen::Vector2d& c_guess, PlanRow& out, DynamicsCache* cache = nullptr) {
+void planRow(const JumpModelConstants& M, const Solved& S, const StanceDynamics& D, double t,
+             Segment segment, Eigen::Vector2d& c_guess, PlanRow& out) {
   using model::JointKind;
   using model::Leg;
   std::array<Eigen::Vector2d, 2> q, qd;
@@ -238,7 +103,8 @@ void planRow(const JumpModelConstants& M, const Solved& S, double t, Segment seg
     out.qd[haa + 3] = wheel_rate[pair];
     out.tau[haa + 3] = wheel_tau[pair];
   }
-  if (segment != Segment::Flight) addLegDynamics(M, S, t, segment, smp, c_guess, cache, out);
+  // The legs' own dynamics in place of the statics (docs/planner.md, "Stance torques").
+  if (segment != Segment::Flight) addStanceTorques(M, S, D, smp, out.tau);
 }
 
 // D = [s(t1/2), s(t2), s(t3), t1, t2, t3] of a solved candidate.
@@ -316,8 +182,8 @@ struct Knot {
 // into the other. Every interval whose torques at a quarter, half and three quarters on that
 // curve miss the plan's by more than kKnotSlopeTauTol is halved (down to min_dt / 8: the braking's
 // ramps last a few milliseconds), and its neighbours, whose slopes change, are checked again.
-void splitForTorqueSlopes(const JumpModelConstants& M, const Solved& S, double min_dt,
-                          Eigen::Vector2d c_guess, std::vector<Knot>& knots) {
+void splitForTorqueSlopes(const JumpModelConstants& M, const Solved& S, const StanceDynamics& D,
+                          double min_dt, Eigen::Vector2d c_guess, std::vector<Knot>& knots) {
   std::vector<char> check(knots.size(), 1);  // the interval ending at each knot
   for (int pass = 0; pass < 16; ++pass) {
     PlanKnots K;
@@ -345,7 +211,7 @@ void splitForTorqueSlopes(const JumpModelConstants& M, const Solved& S, double m
           const double x = 0.25 * (i + 1), x2 = x * x, x3 = x2 * x;
           const double h00 = 2 * x3 - 3 * x2 + 1, h10 = (x3 - 2 * x2 + x) * h;
           const double h01 = -2 * x3 + 3 * x2, h11 = (x3 - x2) * h;
-          planRow(M, S, a.t + x * h, a.segment, c_guess, rows[i]);
+          planRow(M, S, D, a.t + x * h, a.segment, c_guess, rows[i]);
           for (int j = 0; j < model::kNumJoints && !miss; ++j) {
             const double tau = h00 * K.tau(k - 1, j) + h10 * slope(k - 1, j) + h01 * K.tau(k, j) +
                                h11 * slope(k, j);
@@ -411,19 +277,20 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
   plan.dt = k_.settings.output_dt_s;
   const int N = static_cast<int>(std::ceil(S.t3 / plan.dt - 1e-9)) + 1;
   plan.centroidal.resize(N);
-  plan.q.setZero(N, model::kNumJoints);
-  plan.qd.setZero(N, model::kNumJoints);
-  plan.tau.setZero(N, model::kNumJoints);
+  // Every row is written whole below (no zero fill: 7 % of buildPlan's instructions).
+  plan.q.resize(N, model::kNumJoints);
+  plan.qd.resize(N, model::kNumJoints);
+  plan.tau.resize(N, model::kNumJoints);
   Eigen::Vector2d c_guess = k_.c0, c_before = k_.c0;
   detail::PlanRow row;
-  detail::DynamicsCache cache;
+  const detail::StanceDynamics D(k_, S);
   for (int k = 0; k < N; ++k) {
     const double t = std::min(k * plan.dt, S.t3);
     // The CoM offset's iteration starts from its linear extrapolation over the last two samples.
     const Eigen::Vector2d c_last = c_guess;
     if (k >= 2) c_guess = 2.0 * c_last - c_before;
     c_before = c_last;
-    detail::planRow(k_, S, t, detail::segmentAt(S, t), c_guess, row, &cache);
+    detail::planRow(k_, S, D, t, detail::segmentAt(S, t), c_guess, row);
     plan.centroidal[k] = row.s;
     plan.q.row(k) = row.q.transpose();
     plan.qd.row(k) = row.qd.transpose();
@@ -441,6 +308,7 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
 JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
                                const Evaluation* evaluation) const {
   const detail::Solved S = detail::solvedOrThrow(k_, u, "buildKnots");
+  const detail::StanceDynamics D(k_, S);
   JumpPlan plan = detail::planHeader(k_, S);
   plan.dt = 0.0;
   // Phases and the corners of the leg motion (the braking's, tucked, extending, extended),
@@ -518,7 +386,7 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
   auto refine = [&](auto&& self, const Knot& a, const Knot& b) -> void {
     Knot m{0.5 * (a.t + b.t), a.segment, {}, {}};
     Eigen::Vector2d c_mid = c_guess;
-    detail::planRow(k_, S, m.t, m.segment, c_mid, m.row);
+    detail::planRow(k_, S, D, m.t, m.segment, c_mid, m.row);
     if (b.t - a.t > 2.0 * min_dt && !accurate(a, m, b)) {
       self(self, a, m);
       self(self, m, b);
@@ -539,17 +407,17 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
     if (continues) {
       prev = knots.back();
     } else {
-      detail::planRow(k_, S, p.a, p.segment, c_guess, prev.row);
+      detail::planRow(k_, S, D, p.a, p.segment, c_guess, prev.row);
       knots.push_back(prev);
     }
     for (int k = 1; k <= n; ++k) {
       Knot next{k == n ? p.b : p.a + (p.b - p.a) * k / n, p.segment, {}, {}};
-      detail::planRow(k_, S, next.t, next.segment, c_guess, next.row);
+      detail::planRow(k_, S, D, next.t, next.segment, c_guess, next.row);
       refine(refine, prev, next);
       prev = next;
     }
   }
-  detail::splitForTorqueSlopes(k_, S, min_dt, k_.c0, knots);
+  detail::splitForTorqueSlopes(k_, S, D, min_dt, k_.c0, knots);
   PlanKnots& K = plan.knots;
   const int count = static_cast<int>(knots.size());
   K.t.resize(count);

@@ -241,14 +241,15 @@ void contactStatics(const JumpModelConstants& M, const Solved& S, Sample& out) {
   H.q_stop = H.q;
   F.q_stop = F.q;
   H.brakes = F.brakes = false;
-  auto brake_from = [&](int pair, PairSample& p) {
-    const std::array<JointBrake, 2> b = startBrake(M, pair, p.q, p.qd);
+  auto brake_from = [&](int pair, PairSample& p, double share) {
+    const std::array<JointBrake, 2> b = startBrake(M, pair, p.q, p.qd, share);
     p.q_stop = Eigen::Vector2d(b[0].q_stop, b[1].q_stop);
     p.brakes = true;
   };
   const bool at_t2 = out.t >= S.t2 - 1e-9;
-  if (at_t2) brake_from(0, H);
-  if (F.contact && (at_t2 || (S.two_step && out.t >= S.t1 - 1e-9))) brake_from(1, F);
+  if (at_t2) brake_from(0, H, kBrakeTorqueShare);
+  if (F.contact && (at_t2 || (S.two_step && out.t >= S.t1 - 1e-9)))
+    brake_from(1, F, S.two_step ? frontLiftBrakeShare(M) : kBrakeTorqueShare);
   const double local = out.local;
   const Eigen::Vector2d fH = out.phase2 ? Eigen::Vector2d(S.fHx2(local), S.fHz2(local))
                                         : Eigen::Vector2d(S.fHx1(local), S.fHz1(local));

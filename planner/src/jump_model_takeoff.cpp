@@ -89,7 +89,7 @@ Sample liftFrontPair(const JumpModelConstants& M, Solved& S) {
   S.front_wheel_rate_t1 = smp.front.wheel_rate;
   S.front_pose_t1 = M.leg.inversePose(S.front_b_t1, &S.front_reach_t1);
   // Once lifted, the front legs brake from their speeds at t1 and hold where they stop.
-  S.front_brake = startBrake(M, 1, smp.front.q, smp.front.qd);
+  S.front_brake = startBrake(M, 1, smp.front.q, smp.front.qd, frontLiftBrakeShare(M));
   S.front_pose_stop = poseOf(Eigen::Vector2d(S.front_brake[0].q_stop, S.front_brake[1].q_stop));
   S.c_front_t1 = smp.c;
   if (!S.stance_momentum) S.e_t1 = stanceMomentumExcess(M, smp);

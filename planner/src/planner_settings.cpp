@@ -175,6 +175,10 @@ void PlannerSettings::validate() const {
         "planner settings: flip.initial_guess must be empty or have 11 entries (the search "
         "vector), got " +
         std::to_string(flip_initial_guess.size()));
+  check(flip_hind_knee_clearance_rad >= 0.0 && flip_hind_knee_clearance_rad <= 1.0,
+        "flip.hind_knee_clearance_rad", "in [0, 1] rad", flip_hind_knee_clearance_rad);
+  check(flip_front_brake_share > 0.0 && flip_front_brake_share <= 1.0, "flip.front_brake_share",
+        "in (0, 1]", flip_front_brake_share);
   for (std::size_t i = 0; i < flip_initial_guess.size(); ++i)
     check(std::isfinite(flip_initial_guess[i]), "flip.initial_guess[" + std::to_string(i) + "]",
           "finite", flip_initial_guess[i]);
@@ -388,6 +392,8 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"takeoff_dpitch_rad", interval(s.flip_takeoff_dpitch_rad)},
                       {"takeoff_pitch_rate_rad_s", interval(s.flip_takeoff_pitch_rate_rad_s)},
                       {"takeoff_vz_m_s", interval(s.flip_takeoff_vz_m_s)},
+                      {"hind_knee_clearance_rad", number(s.flip_hind_knee_clearance_rad)},
+                      {"front_brake_share", number(s.flip_front_brake_share)},
                       {"initial_guess", [&](const YAML::Node& g) {
                          if (!g.IsSequence())
                            throw YAML::Exception(g.Mark(), "expected a list of 11 numbers or []");

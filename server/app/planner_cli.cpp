@@ -9,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cmath>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -28,6 +29,23 @@ std::string toJson(const google::protobuf::Message& m) {
   options.preserve_proto_field_names = true;
   (void)google::protobuf::util::MessageToJsonString(m, &out, options);
   return out;
+}
+
+// Line `line` (1-based) of a request log: one PlanJumpRequest in JSON per line.
+v1::PlanJumpRequest readRequest(const std::string& path, int line) {
+  std::ifstream in(path);
+  if (!in) throw std::invalid_argument("--request: cannot open " + path);
+  std::string text;
+  for (int i = 0; i < line; ++i)
+    if (!std::getline(in, text))
+      throw std::invalid_argument("--request-line: " + path + " has fewer than " +
+                                  std::to_string(line) + " lines");
+  v1::PlanJumpRequest r;
+  const auto status = google::protobuf::util::JsonStringToMessage(text, &r);
+  if (!status.ok())
+    throw std::invalid_argument("--request: line " + std::to_string(line) + " of " + path +
+                                " is not a PlanJumpRequest: " + std::string(status.message()));
+  return r;
 }
 
 std::vector<double> parseList(const std::string& text, std::size_t n, const std::string& flag) {
@@ -159,6 +177,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   plan->add_option("--html", html, "write a 3D page that plays the plan (HTML)");
   plan->add_option("--snapshots", snapshots, "write a snapshot strip of the plan (PNG)");
+  std::string request_file;
+  int request_line = 1;
+  plan->add_option("--request", request_file,
+                   "replay a logged request (robot_client --request-log: one JSON request per "
+                   "line) instead of building one from the options above; --seed and "
+                   "--candidates still override its budget when given");
+  plan->add_option("--request-line", request_line, "which line of --request (1 = the first)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
 
   auto* stats = app.add_subcommand("stats", "print the server's counters and latencies");
 
@@ -183,18 +210,25 @@ int main(int argc, char** argv) {
 
     if (plan->parsed()) {
       v1::PlanJumpRequest r;
-      auto* s = r.mutable_state();
-      s->mutable_base_orientation_w()->set_w(1.0);
-      s->mutable_base_linear_velocity_w_m_s()->set_x(v0);
-      for (int leg = 0; leg < 4; ++leg) {
-        for (const double q : {0.0, hfe, kfe, 0.0}) s->add_joint_positions_rad(q);
-        for (int j = 0; j < 4; ++j) s->add_joint_velocities_rad_s(0.0);
+      if (!request_file.empty()) {
+        r = readRequest(request_file, request_line);
+        if (seed != 0) r.mutable_budget()->set_seed(seed);
+        if (candidates != 0) r.mutable_budget()->set_max_verified_candidates(candidates);
+        if (skip_verification) r.mutable_budget()->set_skip_verification(true);
+      } else {
+        auto* s = r.mutable_state();
+        s->mutable_base_orientation_w()->set_w(1.0);
+        s->mutable_base_linear_velocity_w_m_s()->set_x(v0);
+        for (int leg = 0; leg < 4; ++leg) {
+          for (const double q : {0.0, hfe, kfe, 0.0}) s->add_joint_positions_rad(q);
+          for (int j = 0; j < 4; ++j) s->add_joint_velocities_rad_s(0.0);
+        }
+        *r.mutable_task() = plan_task.build();
+        r.mutable_budget()->set_seed(seed);
+        r.mutable_budget()->set_max_verified_candidates(candidates);
+        r.mutable_budget()->set_skip_verification(skip_verification);
+        r.set_request_id(request_id);
       }
-      *r.mutable_task() = plan_task.build();
-      r.mutable_budget()->set_seed(seed);
-      r.mutable_budget()->set_max_verified_candidates(candidates);
-      r.mutable_budget()->set_skip_verification(skip_verification);
-      r.set_request_id(request_id);
       const bool draw = !html.empty() || !snapshots.empty();
       if (draw) r.set_trajectory_format(v1::TRAJECTORY_FORMAT_DENSE);
       const auto result = client.planJump(r, deadline).get();

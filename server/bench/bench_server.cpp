@@ -30,14 +30,17 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <future>
 #include <iostream>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <random>
 #include <set>
 #include <sstream>
@@ -181,6 +184,34 @@ bool useResponse(const v1::PlanJumpResponse& response) {
   return wj::client::expandKnots(response.plan().compact_knots(), &knots).empty();
 }
 
+// A response message parsed on an arena whose first block is reused call after call, as a
+// client that cares for its CPU parses: a plain message's Clear() (which every parse starts
+// with) deletes its sub-messages and the parse allocates them again, 2-3 us per hit answer in
+// `perf record` (docs/service.md, "Where a hot hit's CPU goes"). Used alike by the hit and the
+// floor clients.
+template <class Message>
+class ArenaResponse {
+ public:
+  ArenaResponse() : block_(std::make_unique<char[]>(kBlockBytes)) {}
+  /// An empty message on a fresh arena; the previous one is gone.
+  Message* fresh() {
+    arena_.reset();
+    google::protobuf::ArenaOptions options;
+    options.initial_block = block_.get();
+    options.initial_block_size = kBlockBytes;
+    arena_.emplace(options);
+    message_ = google::protobuf::Arena::CreateMessage<Message>(&*arena_);
+    return message_;
+  }
+  const Message& get() const { return *message_; }
+
+ private:
+  static constexpr std::size_t kBlockBytes = 64 * 1024;  // a compact or knots answer fits
+  std::unique_ptr<char[]> block_;
+  std::optional<google::protobuf::Arena> arena_;
+  Message* message_ = nullptr;
+};
+
 v1::PlanJumpRequest standing(double v0, double height) {
   v1::PlanJumpRequest r;
   auto* s = r.mutable_state();
@@ -201,9 +232,12 @@ v1::PlanJumpRequest standing(double v0, double height) {
 
 // Sample period of the returned trajectories of every server started here (--output-dt-s).
 double g_output_dt_s = 0.002;
-// cache.hot_responses_mb of the hit benchmark's server (0: every hit regenerated).
-double g_hot_responses_mb = 0.0;
-// Whether the hit part also measures the hot tier (64 MB) when --hot-responses-mb is 0.
+// cache.hot_responses_mb of the hit benchmark's server (0: every hit regenerated), by default
+// the service's (64).
+double g_hot_responses_mb = wj::server::CacheConfig{}.hot_responses_mb;
+// Whether the hit part also measures the other path in the same run: the regenerated one
+// (cache_hits_regenerated) with the hot tier on, the hot tier (cache_hits_hot_tier, 64 MB) with
+// --hot-responses-mb 0.
 bool g_both_hit_paths = true;
 
 wj::server::ServerConfig baseConfig(const std::filesystem::path& dir) {
@@ -248,13 +282,11 @@ class BinnedRequests {
         rng_(seed),
         id_("bench-" + std::to_string(seed)) {
     request_ = standing(v0_centre, height);
+    centre_ = request_;
+    centre_.set_request_id(id_ + "-centre");
   }
   /// The request at the centre of the bin (the one the cache is warmed with).
-  v1::PlanJumpRequest centre() const {
-    v1::PlanJumpRequest r = request_;
-    r.set_request_id(id_ + "-centre");
-    return r;
-  }
+  const v1::PlanJumpRequest& centre() const { return centre_; }
   /// The next request: a new state inside the bin.
   const v1::PlanJumpRequest& next() {
     const wj::server::CacheConfig bins;  // the defaults, as the benchmark's servers use
@@ -313,7 +345,8 @@ class BinnedRequests {
   std::mt19937 rng_;
   std::string id_;
   std::uint64_t count_ = 0;
-  v1::PlanJumpRequest request_;
+  v1::PlanJumpRequest request_;  ///< the last drawn
+  v1::PlanJumpRequest centre_;
 };
 
 // The bin centres of the hit benchmark's clients: 0, 0.1, 0.2, ... m/s.
@@ -327,6 +360,19 @@ struct ClosedLoop {
   double elapsed_s = 0.0, server_cpu_ms = 0.0, client_cpu_ms = 0.0;
   long errors = 0;
 };
+
+// CLOCK_MONOTONIC [s], the clock of `perf record -k CLOCK_MONOTONIC`.
+double monotonicS() {
+  timespec t{};
+  ::clock_gettime(CLOCK_MONOTONIC, &t);
+  return static_cast<double>(t.tv_sec) + static_cast<double>(t.tv_nsec) / 1e9;
+}
+
+// The timed part of a closed loop on stderr, as `perf report --time START,END` takes it, so that
+// a profile of the whole benchmark can be cut to one loop (docs/service.md, "Profiling a hit").
+void markPhase(const char* tag, double start_s, double end_s) {
+  std::fprintf(stderr, "phase %s %.6f,%.6f\n", tag, start_s, end_s);
+}
 
 // Client `i`'s stub on its own connection (`tag` keeps gRPC from sharing one).
 std::unique_ptr<v1::JumpPlanner::Stub> clientStub(Server& server, const char* tag, int i) {
@@ -366,8 +412,10 @@ ClosedLoop runClosedLoop(Server& server, int clients, double seconds, const char
   while (ready.load() < clients) std::this_thread::sleep_for(1ms);
   const double server_cpu0 = server.cpuMs(), client_cpu0 = selfCpuMs();
   const auto t0 = Clock::now();
+  const double mark0 = monotonicS();
   go = true;
   for (auto& t : threads) t.join();
+  markPhase(tag, mark0, monotonicS());
   ClosedLoop r;
   r.elapsed_s = msSince(t0) / 1e3;
   r.server_cpu_ms = server.cpuMs() - server_cpu0;
@@ -434,12 +482,14 @@ ClosedLoop runCallbackLoop(Server& server, int clients, double seconds, const ch
   std::this_thread::sleep_for(300ms);
   const double server_cpu0 = server.cpuMs(), client_cpu0 = selfCpuMs();
   const auto t0 = Clock::now();
+  const double mark0 = monotonicS();
   end = at(seconds);
   timed = true;
   {
     std::unique_lock<std::mutex> lock(mutex);
     cv.wait(lock, [&] { return finished == clients; });
   }
+  markPhase(tag, mark0, monotonicS());
   ClosedLoop r;
   r.elapsed_s = msSince(t0) / 1e3;
   r.server_cpu_ms = server.cpuMs() - server_cpu0;
@@ -470,17 +520,17 @@ json benchGrpcFloor(Server& server, int clients, double seconds) {
       server, clients, seconds, "wj.bench.floor_client", [](v1::JumpPlanner::Stub& stub, int) {
         grpc::ClientContext ctx;
         ctx.set_deadline(std::chrono::system_clock::now() + 5s);
-        v1::GetStatsResponse response;
-        return stub.GetStats(&ctx, v1::GetStatsRequest{}, &response).ok();
+        thread_local ArenaResponse<v1::GetStatsResponse> response;
+        return stub.GetStats(&ctx, v1::GetStatsRequest{}, response.fresh()).ok();
       }));
   j["rpc"] = "GetStats";
   // The same with callback-API clients (no client thread per call in flight).
-  std::vector<v1::GetStatsResponse> responses(static_cast<std::size_t>(clients));
+  std::vector<ArenaResponse<v1::GetStatsResponse>> responses(static_cast<std::size_t>(clients));
   const v1::GetStatsRequest request;
   j["callback_clients"] = loopJson(runCallbackLoop(
       server, clients, seconds, "wj.bench.floor_callback",
       [&](v1::JumpPlanner::Stub& stub, grpc::ClientContext* ctx, int i, auto done) {
-        stub.async()->GetStats(ctx, &request, &responses[static_cast<std::size_t>(i)],
+        stub.async()->GetStats(ctx, &request, responses[static_cast<std::size_t>(i)].fresh(),
                                [done](const grpc::Status& s) { done(s.ok()); });
       }));
   return j;
@@ -508,20 +558,40 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
       if (!r.ok()) throw std::runtime_error("warm-up plan failed: " + r.status.error_message());
     }
   }
-  std::atomic<long> not_hits{0}, sized{0}, bytes_total{0}, bytes_min{1L << 40}, bytes_max{0};
+  // Each client's requests, drawn before the clock starts: kRing new states inside its bin,
+  // sent in turn, so that the timed loops measure what a robot client does per call (serialize
+  // the request, parse the answer, check its source and expand its knots), not the generator's
+  // random numbers and trigonometry (2-3 us per call in `perf record`).
+  constexpr std::size_t kRing = 512;
+  std::vector<std::vector<v1::PlanJumpRequest>> rings(static_cast<std::size_t>(clients));
+  for (int i = 0; i < clients; ++i) {
+    auto& ring = rings[static_cast<std::size_t>(i)];
+    ring.reserve(kRing);
+    for (std::size_t k = 0; k < kRing; ++k)
+      ring.push_back(generators[static_cast<std::size_t>(i)].next());
+  }
+  std::vector<std::size_t> sent(static_cast<std::size_t>(clients), 0);
+  const auto nextRequest = [&](int i) -> const v1::PlanJumpRequest& {
+    const auto c = static_cast<std::size_t>(i);
+    return rings[c][sent[c]++ % kRing];
+  };
+  std::atomic<long> not_hits{0}, ready{0}, sized{0}, bytes_total{0}, bytes_min{1L << 40},
+      bytes_max{0};
   std::vector<long> answered(static_cast<std::size_t>(clients), 0);
-  std::vector<v1::PlanJumpResponse> responses(static_cast<std::size_t>(clients));
+  std::vector<ArenaResponse<v1::PlanJumpResponse>> responses(static_cast<std::size_t>(clients));
   const ClosedLoop loop = runClosedLoop(
       server, clients, seconds, "wj.bench.client", [&](v1::JumpPlanner::Stub& stub, int i) {
-        auto& generator = generators[static_cast<std::size_t>(i)];
-        auto& response = responses[static_cast<std::size_t>(i)];
+        auto& slot = responses[static_cast<std::size_t>(i)];
         grpc::ClientContext ctx;
         ctx.set_deadline(std::chrono::system_clock::now() + 5s);
         const bool first = answered[static_cast<std::size_t>(i)]++ == 0;
-        const grpc::Status s =
-            stub.PlanJump(&ctx, first ? generator.centre() : generator.next(), &response);
+        const grpc::Status s = stub.PlanJump(
+            &ctx, first ? generators[static_cast<std::size_t>(i)].centre() : nextRequest(i),
+            slot.fresh());
+        const v1::PlanJumpResponse& response = slot.get();
         if (!s.ok() || first) return s.ok();
         if (response.source() != v1::PLAN_SOURCE_CACHE_HIT || !useResponse(response)) ++not_hits;
+        if (response.ready_response()) ++ready;
         if (answered[static_cast<std::size_t>(i)] % 16 != 2) return true;  // every 16th: sized
         ++sized;
         const auto n = static_cast<long>(response.ByteSizeLong());
@@ -541,6 +611,7 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
   j["output_dt_s"] = config.planner.output_dt_s;
   j["hot_responses_mb"] = hot_mb;
   j["not_hits"] = not_hits.load();
+  j["ready_responses"] = ready.load();  // answered by the hot tier (ready_response)
   j["errors_or_not_hits"] = loop.errors + not_hits.load();
   j["response_bytes"] = sampled > 0 ? bytes_total.load() / sampled : 0;
   j["response_bytes_min"] = sampled > 0 ? bytes_min.load() : 0;
@@ -551,21 +622,24 @@ json benchHits(const std::filesystem::path& dir, int clients, double seconds, do
   j["meets_throughput_target"] = throughput >= 10000.0;
   // The same hits from callback-API clients (no client thread per call in flight): what the
   // service answers when the clients cost less, against the floor's callback_clients.
-  std::atomic<long> callback_not_hits{0};
+  std::atomic<long> callback_not_hits{0}, callback_ready{0};
   const ClosedLoop callback = runCallbackLoop(
       server, clients, seconds, "wj.bench.client_callback",
       [&](v1::JumpPlanner::Stub& stub, grpc::ClientContext* ctx, int i, auto done) {
-        auto& response = responses[static_cast<std::size_t>(i)];
-        stub.async()->PlanJump(ctx, &generators[static_cast<std::size_t>(i)].next(), &response,
-                               [done, &response, &callback_not_hits](const grpc::Status& s) {
+        v1::PlanJumpResponse* answer = responses[static_cast<std::size_t>(i)].fresh();
+        stub.async()->PlanJump(ctx, &nextRequest(i), answer,
+                               [done, &response = *answer, &callback_not_hits,
+                                &callback_ready](const grpc::Status& s) {
                                  if (s.ok() && (response.source() != v1::PLAN_SOURCE_CACHE_HIT ||
                                                 !useResponse(response)))
                                    ++callback_not_hits;
+                                 if (s.ok() && response.ready_response()) ++callback_ready;
                                  done(s.ok());
                                });
       });
   j["callback_clients"] = loopJson(callback);
   j["callback_clients"]["not_hits"] = callback_not_hits.load();
+  j["callback_clients"]["ready_responses"] = callback_ready.load();
   j["grpc_floor"] = benchGrpcFloor(server, clients, seconds);
   return j;
 }
@@ -969,10 +1043,9 @@ int main(int argc, char** argv) {
                  "cache.hot_responses_mb of the hit benchmark's server: > 0 answers a hit after "
                  "the first of its bin with the bin's ready response (docs/service.md, Hot tier)")
       ->capture_default_str();
-  app.add_flag(
-      "!--no-hot-tier", g_both_hit_paths,
-      "with --hot-responses-mb 0, do not also measure the hot tier (64 MB) in the same run "
-      "(cache_hits_hot_tier)");
+  app.add_flag("!--no-other-hit-path,!--no-hot-tier", g_both_hit_paths,
+               "do not also measure the other hit path in the same run (cache_hits_regenerated, "
+               "or cache_hits_hot_tier with --hot-responses-mb 0)");
   std::string format = "compact_knots";
   app.add_option("--format", format,
                  "trajectory format of the requests: compact_knots (the robot client's) | knots | "
@@ -1013,10 +1086,14 @@ int main(int argc, char** argv) {
   try {
     if (only.empty() || only == "hits") {
       out["cache_hits"] = benchHits(dir, clients, hit_seconds, g_hot_responses_mb);
-      // Both paths in one run: the default (regenerated) and the hot tier, each against the
-      // empty RPC measured on its own server.
-      if (g_hot_responses_mb == 0.0 && g_both_hit_paths)
-        out["cache_hits_hot_tier"] = benchHits(dir, clients, hit_seconds, 64.0);
+      // Both paths in one run: the configured one and the other, each against the empty RPC
+      // measured on its own server.
+      if (g_both_hit_paths) {
+        if (g_hot_responses_mb == 0.0)
+          out["cache_hits_hot_tier"] = benchHits(dir, clients, hit_seconds, 64.0);
+        else
+          out["cache_hits_regenerated"] = benchHits(dir, clients, hit_seconds, 0.0);
+      }
     }
     if (only.empty() || only == "hits" || only == "breakdown")
       out["hit_breakdown"] = benchHitBreakdown(dir, breakdown_iterations);

@@ -179,9 +179,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // the probes below, over the ground beyond their box, do not see; 9: the backflip's box and
   // initial guess below; 10: a backflip's hind roll from its phase-1 speed at t1, which no probe
   // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below;
-  // 12: takeoff_unload_s below), which the probes below, run without the polish, do
-  // not see.
-  w.put(std::uint32_t{12});
+  // 12: takeoff_unload_s below; 13: the backflip's hind knee clearance and front brake share
+  // below), which the probes below, run without the polish, do not see.
+  w.put(std::uint32_t{13});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -216,6 +216,8 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   }
   w.put(static_cast<std::uint64_t>(s.flip_initial_guess.size()));
   for (const double v : s.flip_initial_guess) w.putDouble(v);
+  w.putDouble(s.flip_hind_knee_clearance_rad);
+  w.putDouble(s.flip_front_brake_share);
   // The clearance a platform landing keeps (no probe lands on a box).
   w.putDouble(s.platform_margin_m);
   // When a wall jump's legs start extending (the probes' worst clearance need not fall there).

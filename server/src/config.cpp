@@ -369,7 +369,7 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
     r.read("posture_bin_rad", k.posture_bin_rad);
     r.read("warm_start_neighbors", k.warm_start_neighbors);
     r.read("warm_start_max_distance_m_s", k.warm_start_max_distance_m_s);
-    // Opt-in, like the backend: configurations without it keep regenerating every hit.
+    // May be left out (configurations written before it): the built-in default, on (64 MB).
     if (r.has("hot_responses_mb")) r.read("hot_responses_mb", k.hot_responses_mb);
     if (k.backend == CacheBackend::Redis && !r.has("redis"))
       throw std::runtime_error("server config " + origin +

@@ -5,6 +5,7 @@
 #include <grpcpp/support/proto_buffer_reader.h>
 #include <grpcpp/support/proto_buffer_writer.h>
 
+#include <cstddef>
 #include <deque>
 #include <mutex>
 
@@ -46,46 +47,22 @@ Clock::time_point toCoreDeadline(std::chrono::system_clock::time_point deadline,
 
 //==============================================================================================
 // PlanJump on the raw (ByteBuffer) callback method, so that a hot hit is answered with ready
-// bytes instead of a message copied and serialized per call: the request is parsed, and the
-// response serialized, here.
+// bytes instead of a message copied and serialized per call. The service's handler
+// (JumpPlannerService::PlanJump) parses and validates the request and answers what it can at
+// once (errors, hot hits) with gRPC's default reactor; this reactor is for the calls that go to
+// the core (misses and regenerated hits): it converts and serializes their answer on the core's
+// worker thread.
 class PlanJumpReactor final : public grpc::ServerUnaryReactor {
  public:
+  // `admitted`: the call holds one of limits.max_inflight_calls (released in OnDone).
   PlanJumpReactor(JumpPlannerService& service, grpc::CallbackServerContext* context,
-                  const grpc::ByteBuffer* request_bytes, grpc::ByteBuffer* response_bytes)
+                  PlanRequest&& r, JumpPlannerService::HotSlot&& hot,
+                  grpc::ByteBuffer* response_bytes)
       : service_(service), arena_(arenaOptions()) {
     auto& core = service_.core_;
-    core.recordRequest();
-    if (!service_.admit()) {
-      admitted_ = false;
-      core.recordBusy();
-      Finish(tooManyCalls(service_.config_.limits.max_inflight_calls));
-      return;
-    }
-    auto* request = google::protobuf::Arena::CreateMessage<v1::PlanJumpRequest>(&arena_);
-    if (!parse(*request_bytes, request)) {
-      core.recordInvalid();
-      Finish(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
-                          "the request does not parse as a wheeljump.planner.v1.PlanJumpRequest"));
-      return;
-    }
-    PlanRequest r;
-    try {
-      r = toPlanRequest(*request, core.robot());
-    } catch (...) {
-      core.recordInvalid();
-      const ServiceError e = classifyException(std::current_exception());
-      spdlog::debug("PlanJump {}: {}", printable(request->request_id()), e.what());
-      Finish(toGrpcStatus(e));
-      return;
-    }
     const std::string request_id = r.request_id;
     const TrajectoryFormat format = r.trajectory;
     const auto& robot = core.robot();
-    HotSlot hot;
-    if (service_.hot_.enabled()) {
-      hot = findHot(r, response_bytes);
-      if (hot.served) return;
-    }
     auto* response = google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(&arena_);
     call_ = std::make_shared<PlanCall>(
         toCoreDeadline(context->deadline(), service_.config_.deadlines),
@@ -114,20 +91,13 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
     if (call_) call_->cancel();
   }
   void OnDone() override {
-    if (admitted_) service_.release();
+    service_.release();
     delete this;
   }
 
  private:
-  // The hot tier's slot of a request: its key and the cache entry it would be built from.
-  struct HotSlot {
-    std::string key;               ///< "" when the request is not a hit
-    std::uint64_t generation = 0;  ///< the cache entry's (SolutionCache::find)
-    bool served = false;
-  };
-
-  // Small first block (a request, or an error answer, needs little), growing to 64 KiB blocks
-  // for the dense plan: about ten blocks for a 500 Hz response.
+  // Small first block (an error answer needs little), growing to 64 KiB blocks for the dense
+  // plan: about ten blocks for a 500 Hz response.
   static google::protobuf::ArenaOptions arenaOptions() {
     google::protobuf::ArenaOptions o;
     o.start_block_size = 4 * 1024;
@@ -135,38 +105,9 @@ class PlanJumpReactor final : public grpc::ServerUnaryReactor {
     return o;
   }
 
-  static bool parse(const grpc::ByteBuffer& bytes, v1::PlanJumpRequest* request) {
-    grpc::ByteBuffer copy(bytes);  // shares the slices; Deserialize consumes its buffer
-    return grpc::SerializationTraits<v1::PlanJumpRequest>::Deserialize(&copy, request).ok();
-  }
-
-  // Answers `r` from the hot tier if its bin has ready bytes built from the entry the cache
-  // holds now (Finish is called and served is set); else the slot to fill after the hit.
-  HotSlot findHot(const PlanRequest& r, grpc::ByteBuffer* response_bytes) {
-    const auto received = Clock::now();
-    auto& core = service_.core_;
-    HotSlot slot;
-    const CacheKey key = core.keyOf(r);
-    if (!core.findHit(r, key, &slot.generation)) return slot;
-    constexpr char kFormatTag[] = {'D', 'K', 'C'};  // per TrajectoryFormat
-    slot.key = key.bytes() + kFormatTag[static_cast<int>(r.trajectory)];
-    const auto ready = service_.hot_.find(slot.key, slot.generation);
-    if (!ready) return slot;
-    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - received).count();
-    const std::string suffix = readySuffix(r.request_id, ms);
-    grpc::Slice parts[2] = {*ready, grpc::Slice(suffix)};
-    grpc::ByteBuffer answer(parts, 2);
-    response_bytes->Swap(&answer);
-    core.recordHotHit(ms);
-    slot.served = true;
-    Finish(grpc::Status::OK);
-    return slot;
-  }
-
   JumpPlannerService& service_;
-  google::protobuf::Arena arena_;  ///< the call's request and response
+  google::protobuf::Arena arena_;  ///< the call's response
   std::shared_ptr<PlanCall> call_;
-  bool admitted_ = true;
 };
 
 //==============================================================================================
@@ -269,9 +210,73 @@ bool JumpPlannerService::admit() {
 }
 
 grpc::ServerUnaryReactor* JumpPlannerService::PlanJump(grpc::CallbackServerContext* context,
-                                                       const grpc::ByteBuffer* request,
-                                                       grpc::ByteBuffer* response) {
-  return new PlanJumpReactor(*this, context, request, response);
+                                                       const grpc::ByteBuffer* request_bytes,
+                                                       grpc::ByteBuffer* response_bytes) {
+  // What is answered here, at once, finishes on gRPC's default reactor, whose completion gRPC
+  // runs inline; a reactor of our own would have its OnDone handed to gRPC's executor thread,
+  // a thread wake-up per call (docs/service.md, "Where a hot hit's CPU goes").
+  const auto answer_now = [context](const grpc::Status& status) {
+    grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+    reactor->Finish(status);
+    return reactor;
+  };
+  core_.recordRequest();
+  if (!admit()) {
+    core_.recordBusy();
+    return answer_now(tooManyCalls(config_.limits.max_inflight_calls));
+  }
+  // The request is parsed on an arena whose first block is on this stack: no heap allocation
+  // for a request of ordinary size (a few hundred bytes on the wire).
+  alignas(std::max_align_t) char block[8192];
+  google::protobuf::ArenaOptions options;
+  options.initial_block = block;
+  options.initial_block_size = sizeof block;
+  google::protobuf::Arena arena(options);
+  auto* request = google::protobuf::Arena::CreateMessage<v1::PlanJumpRequest>(&arena);
+  {
+    grpc::ByteBuffer copy(*request_bytes);  // shares the slices; Deserialize consumes its buffer
+    if (!grpc::SerializationTraits<v1::PlanJumpRequest>::Deserialize(&copy, request).ok()) {
+      release();
+      core_.recordInvalid();
+      return answer_now(
+          grpc::Status(grpc::StatusCode::INVALID_ARGUMENT,
+                       "the request does not parse as a wheeljump.planner.v1.PlanJumpRequest"));
+    }
+  }
+  PlanRequest r;
+  try {
+    r = toPlanRequest(*request, core_.robot());
+  } catch (...) {
+    release();
+    core_.recordInvalid();
+    const ServiceError e = classifyException(std::current_exception());
+    spdlog::debug("PlanJump {}: {}", printable(request->request_id()), e.what());
+    return answer_now(toGrpcStatus(e));
+  }
+  HotSlot hot;
+  if (hot_.enabled() && answerHot(r, response_bytes, &hot)) {
+    release();
+    return answer_now(grpc::Status::OK);
+  }
+  return new PlanJumpReactor(*this, context, std::move(r), std::move(hot), response_bytes);
+}
+
+bool JumpPlannerService::answerHot(const PlanRequest& r, grpc::ByteBuffer* response_bytes,
+                                   HotSlot* slot) {
+  const auto received = Clock::now();
+  const CacheKey key = core_.keyOf(r);
+  if (!core_.findHit(r, key, &slot->generation)) return false;
+  constexpr char kFormatTag[] = {'D', 'K', 'C'};  // per TrajectoryFormat
+  slot->key = key.bytes() + kFormatTag[static_cast<int>(r.trajectory)];
+  const auto ready = hot_.find(slot->key, slot->generation);
+  if (!ready) return false;
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - received).count();
+  const std::string suffix = readySuffix(r.request_id, ms);
+  grpc::Slice parts[2] = {*ready, grpc::Slice(suffix)};
+  grpc::ByteBuffer answer(parts, 2);
+  response_bytes->Swap(&answer);
+  core_.recordHotHit(ms);
+  return true;
 }
 
 grpc::ServerUnaryReactor* JumpPlannerService::GetStats(grpc::CallbackServerContext* context,

@@ -16,6 +16,7 @@ std::string readySuffix(const std::string& request_id, double total_ms) {
   v1::PlanJumpResponse own;
   own.set_request_id(request_id);
   own.mutable_stats()->set_total_ms(total_ms);
+  own.set_ready_response(true);
   return own.SerializeAsString();
 }
 

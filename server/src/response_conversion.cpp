@@ -158,8 +158,15 @@ v1::PlanSource toProto(PlanSource source) {
 
 void toProto(const PlanAnswer& a, const model::RobotModel& robot, const std::string& request_id,
              TrajectoryFormat format, v1::PlanJumpResponse* out) {
-  if (a.plan.numSamples() > 0 || a.plan.knots.size() > 0)
+  if (a.plan.numSamples() > 0 || a.plan.knots.size() > 0) {
     toProto(a.plan, robot, format, out->mutable_plan());
+    auto* from = out->mutable_planned_for();
+    from->set_v0_m_s(a.plan.initial.vx);
+    from->set_pitch_rad(a.plan.initial.pitch);
+    from->set_pitch_rate_rad_s(a.plan.initial.pitch_rate);
+    from->mutable_joint_positions_rad()->Assign(a.plan.q_initial.data(),
+                                                a.plan.q_initial.data() + a.plan.q_initial.size());
+  }
   toProto(a.evaluation.predicted, out->mutable_predicted());
   auto* f = out->mutable_feasibility();
   f->set_feasible(a.evaluation.feasible);

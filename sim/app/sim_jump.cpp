@@ -227,6 +227,64 @@ void writePictures(const PictureFiles& files, const wj::model::RobotModel& robot
   if (!files.html.empty()) wj::viz::writeReplayPage(robot, rec, files.html);
 }
 
+// A start state other than the preset's nominal one (--start-state): what the planner plans
+// from and where Simbody starts.
+struct StartState {
+  pl::InitialState planner;  ///< v0, pitch, pitch rate, joint positions
+  sm::JointVector qd;        ///< joint velocities at t = 0 in Simbody [rad/s]
+};
+
+// Reads a strict JSON start state: exactly the keys v0 [m/s], pitch [rad, nose-up], pitch_rate
+// [rad/s], q and qd (16 numbers each, jointIndex order: LF, RF, LH, RH, each HAA, HFE, KFE,
+// wheel). The ranges are the planner's (InitialState::validate) and, for qd, each joint's
+// no-load speed. Throws naming the field.
+StartState readStartState(const std::string& path, const wj::model::RobotModel& robot) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("--start-state: cannot read " + path);
+  const json j = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (!j.is_object()) throw std::runtime_error("--start-state " + path + ": not a JSON object");
+  const std::array<const char*, 5> keys = {"v0", "pitch", "pitch_rate", "q", "qd"};
+  for (const auto& [key, value] : j.items())
+    if (std::find_if(keys.begin(), keys.end(), [&](const char* k) { return key == k; }) ==
+        keys.end())
+      throw std::runtime_error("--start-state " + path + ": unknown key '" + key +
+                               "' (allowed: v0, pitch, pitch_rate, q, qd)");
+  const auto number = [&](const char* key) {
+    if (!j.contains(key) || !j[key].is_number())
+      throw std::runtime_error("--start-state " + path + ": '" + key + "' must be a number");
+    return j[key].get<double>();
+  };
+  const auto joints = [&](const char* key) {
+    if (!j.contains(key) || !j[key].is_array() || j[key].size() != wj::model::kNumJoints)
+      throw std::runtime_error("--start-state " + path + ": '" + key + "' must be an array of " +
+                               std::to_string(wj::model::kNumJoints) +
+                               " numbers (jointIndex order)");
+    sm::JointVector v;
+    for (int i = 0; i < wj::model::kNumJoints; ++i) {
+      if (!j[key][i].is_number())
+        throw std::runtime_error("--start-state " + path + ": '" + key + "[" +
+                                 robot.joints()[i].name + "]' must be a number");
+      v[i] = j[key][i].get<double>();
+    }
+    return v;
+  };
+  StartState s;
+  s.planner.v0 = number("v0");
+  s.planner.pitch = number("pitch");
+  s.planner.pitch_rate = number("pitch_rate");
+  s.planner.q = joints("q");
+  s.qd = joints("qd");
+  s.planner.validate(robot);
+  for (int i = 0; i < wj::model::kNumJoints; ++i) {
+    const double limit = robot.joints()[i].actuator.no_load_speed_rad_s;
+    if (!(std::abs(s.qd[i]) <= limit))
+      throw std::runtime_error("--start-state " + path + ": qd[" + robot.joints()[i].name +
+                               "] = " + std::to_string(s.qd[i]) + " is outside [-" +
+                               std::to_string(limit) + ", " + std::to_string(limit) + "] rad/s");
+  }
+  return s;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -239,7 +297,13 @@ int main(int argc, char** argv) {
   bool json_out = false;
   PictureFiles pictures;
   app.add_option("--task", task, "forward | forward_hw | vertical | backflip | platform");
-  app.add_option("--v0", v0, "run-up speed [m/s]");
+  auto* v0_option = app.add_option("--v0", v0, "run-up speed [m/s]");
+  std::string start_state_path;
+  app.add_option("--start-state", start_state_path,
+                 "plan from and start Simbody in this state instead of the preset's nominal one "
+                 "(JSON: v0, pitch, pitch_rate, q[16], qd[16], jointIndex order; "
+                 "docs/backflip.md)")
+      ->excludes(v0_option);
   app.add_option("--seed", seed, "planner seed");
   app.add_option("--threads", threads, "planner threads")->check(CLI::Range(1, 64));
   app.add_option("--config", planner_config, "planner settings YAML");
@@ -272,7 +336,10 @@ int main(int argc, char** argv) {
     const pl::JumpPlanner planner(robot, planner_config.empty()
                                              ? pl::PlannerSettings{}
                                              : pl::PlannerSettings::fromYaml(planner_config));
-    const pl::Scenario sc = pl::makePreset(planner, task, v0);
+    std::optional<StartState> start;
+    if (!start_state_path.empty()) start = readStartState(start_state_path, robot);
+    pl::Scenario sc = pl::makePreset(planner, task, start ? start->planner.v0 : v0);
+    if (start) sc.initial = start->planner;
     pl::PlanOptions opts;
     opts.seed = seed;
     opts.threads = threads;
@@ -294,7 +361,11 @@ int main(int argc, char** argv) {
       scenario.terrain = sm::applyPlant(with_terrain, plant).terrain;
     }
     sm::TelemetryRecorder recorder;
-    const sm::VerificationReport v = verifier.verify(r.plan, scenario, recorder.callback());
+    // Simbody starts where the plan does, with the start state's joint velocities if given.
+    sm::InitialState initial = sm::initialStateFromPlan(robot, r.plan);
+    if (start) initial.qd = start->qd;
+    const sm::VerificationReport v =
+        verifier.verify(r.plan, initial, scenario, recorder.callback());
     if (!plan_csv_path.empty()) writePlanCsv(plan_csv_path, r.plan);
     if (!momentum_csv_path.empty()) writeMomentumCsv(momentum_csv_path, robot, recorder, r.plan);
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";

@@ -71,6 +71,13 @@ TEST(Backflip, SettingsAreReadAndCheckedByName) {
   expectError("flip: {t1_s: [0.3, 0.1]}\n", "flip.t1_s");
   expectError("flip: {takeoff_vz_m_s: [0.0, 3.0]}\n", "flip.takeoff_vz_m_s");
   expectError("flip: {t2_minus_t1: [0.3, 0.8]}\n", "flip.t2_minus_t1");
+  const PlannerSettings t = PlannerSettings::fromYamlString(
+      "flip: {hind_knee_clearance_rad: 0.25, front_brake_share: 0.6}\n");
+  EXPECT_DOUBLE_EQ(t.flip_hind_knee_clearance_rad, 0.25);
+  EXPECT_DOUBLE_EQ(t.flip_front_brake_share, 0.6);
+  expectError("flip: {hind_knee_clearance_rad: -0.1}\n", "flip.hind_knee_clearance_rad");
+  expectError("flip: {front_brake_share: 0.0}\n", "flip.front_brake_share");
+  expectError("flip: {front_brake_share: 1.2}\n", "flip.front_brake_share");
 }
 
 // The paper's result in this model: with the knee's peak torque at 57 Nm (every other actuator
@@ -155,34 +162,72 @@ TEST(Backflip, FrontPairMomentumGoesToTheBodyAtT1) {
   EXPECT_NEAR(step, handover / inertia, 0.05 * std::abs(handover / inertia)) << handover;
 }
 
-// A backflip's hind knee pushes 0.1 rad short of its extension stop (-0.5 rad;
-// kFlipHindKneeClearance): a 42 Nm flip planned without that clearance straightened the hind
-// knee to 0.008 rad from the stop in the hind-only push, and Simbody's knee chattered on it
-// (docs/backflip.md, "A 42 Nm flip, verified in Simbody"). That flip's search vector now
-// violates the joint range by the clearance less its 0.008 rad, at the hind knee, in the push.
+// A backflip's hind knee pushes settings.flip_hind_knee_clearance_rad short of its extension
+// stop (-0.5 rad; 0.1 by default, 0.25 in config/backflip-42nm.yaml): a 42 Nm flip planned
+// without that clearance straightened the hind knee to 0.008 rad from the stop in the hind-only
+// push, and Simbody's knee chattered on it (docs/backflip.md, "A 42 Nm flip, verified in
+// Simbody"). That flip's search vector now violates the joint range by the clearance less its
+// 0.008 rad, at the hind knee, in the push.
 TEST(Backflip, HindKneePushesClearOfItsExtensionStop) {
-  const PlannerSettings s;
+  for (const double clearance : {0.1, 0.25}) {
+    SCOPED_TRACE(clearance);
+    PlannerSettings s;
+    s.flip_hind_knee_clearance_rad = clearance;
+    const model::RobotModel robot42 = model::RobotModel::loadDefault("actuators.yaml");
+    const JumpPlanner planner(robot42, s);
+    Scenario sc = makePreset(planner, "backflip");
+    sc.initial.v0 = -1.0;
+    const JumpModel m(planner.robot(), s, sc.task, sc.initial);
+    Eigen::VectorXd u(11);
+    u << -0.000363, 0.019808, 0.132334, 0.400000, 0.270433, 2.539553, 0.272052, 1.500000, 12.246117,
+        0.145947, 0.499993;
+    Evaluation ev;
+    m.evaluate(u, ev);
+    const ClassMargin& pos = ev.margins[static_cast<int>(ConstraintClass::JointPosition)];
+    const JumpPlan plan = m.buildPlan(u);
+    const int knee = model::jointIndex(model::Leg::LH, model::JointKind::KFE);
+    double straightest = -10.0;  // the hind knee's largest angle while the hind wheels push
+    for (int k = 0; k < plan.numSamples() && k * plan.dt < plan.t2; ++k)
+      straightest = std::max(straightest, plan.q(k, knee));
+    ASSERT_GT(straightest, -0.52);  // the flip that chattered: within 0.02 rad of the stop
+    EXPECT_EQ(pos.location, knee);
+    EXPECT_GT(pos.t, plan.t1);
+    EXPECT_LT(pos.t, plan.t2);
+    EXPECT_NEAR(pos.worst, -0.5 - clearance - straightest, 0.005);
+  }
+}
+
+// A backflip's lifted front pair brakes at settings.flip_front_brake_share of its drives'
+// torque (0.8 by default, as every other lift-off; 0.6 in config/backflip-42nm.yaml: the front
+// knees extend at 26-28 rad/s into t1, and braked at 0.8 Simbody's joint controllers had no
+// room from perturbed starts; docs/backflip.md, "From perturbed starts"). The 42 Nm flip of
+// that file (its initial_guess): the front knee's planned torque in the 50 ms after t1, the
+// brake's plus the leg's dynamics, is 33 Nm at 0.8 and at most 0.7 x 42 Nm at 0.6.
+TEST(Backflip, LiftedFrontPairBrakesAtItsShare) {
   const model::RobotModel robot42 = model::RobotModel::loadDefault("actuators.yaml");
-  const JumpPlanner planner(robot42, s);
-  Scenario sc = makePreset(planner, "backflip");
-  sc.initial.v0 = -1.0;
-  const JumpModel m(planner.robot(), s, sc.task, sc.initial);
-  Eigen::VectorXd u(11);
-  u << -0.000363, 0.019808, 0.132334, 0.400000, 0.270433, 2.539553, 0.272052, 1.500000, 12.246117,
-      0.145947, 0.499993;
-  Evaluation ev;
-  m.evaluate(u, ev);
-  const ClassMargin& pos = ev.margins[static_cast<int>(ConstraintClass::JointPosition)];
-  const JumpPlan plan = m.buildPlan(u);
-  const int knee = model::jointIndex(model::Leg::LH, model::JointKind::KFE);
-  double straightest = -10.0;  // the hind knee's largest angle while the hind wheels push
-  for (int k = 0; k < plan.numSamples() && k * plan.dt < plan.t2; ++k)
-    straightest = std::max(straightest, plan.q(k, knee));
-  ASSERT_GT(straightest, -0.52);  // the flip that chattered: within 0.02 rad of the stop
-  EXPECT_EQ(pos.location, knee);
-  EXPECT_GT(pos.t, plan.t1);
-  EXPECT_LT(pos.t, plan.t2);
-  EXPECT_NEAR(pos.worst, -0.5 - 0.1 - straightest, 0.005);
+  const int knee = model::jointIndex(model::Leg::LF, model::JointKind::KFE);
+  const double peak = robot42.joints()[knee].actuator.peak_torque_nm;
+  const auto frontBraking = [&](double share) {
+    PlannerSettings s;
+    s.flip_front_brake_share = share;
+    const JumpPlanner planner(robot42, s);
+    Scenario sc = makePreset(planner, "backflip");
+    sc.initial.v0 = -1.0;
+    const JumpModel m(planner.robot(), s, sc.task, sc.initial);
+    Eigen::VectorXd u(11);
+    u << -0.002259, 0.020900, 0.127477, 0.400000, 0.269652, 2.540581, 0.296040, 1.500000, 11.789795,
+        0.156749, 0.499423;
+    const JumpPlan plan = m.buildPlan(u);
+    double braking = 0.0;  // the front knee's largest |torque| in the 50 ms after t1
+    for (int k = 0; k < plan.numSamples(); ++k)
+      if (k * plan.dt > plan.t1 + 1e-9 && k * plan.dt < plan.t1 + 0.05)
+        braking = std::max(braking, std::abs(plan.tau(k, knee)));
+    return braking;
+  };
+  EXPECT_GT(frontBraking(0.8), 0.75 * peak);
+  const double gentle = frontBraking(0.6);
+  EXPECT_LE(gentle, 0.7 * peak);
+  EXPECT_GT(gentle, 0.5 * peak);
 }
 
 }  // namespace

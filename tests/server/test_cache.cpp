@@ -129,6 +129,9 @@ TEST(SettingsHash, StableAndSensitiveToEveryKindOfSetting) {
   EXPECT_TRUE(changed([](auto& s) { s.platform_margin_m = 0.03; }));  // no probe lands on a box
   EXPECT_TRUE(changed([](auto& s) { s.tuck_end_fraction = 0.15; }));
   EXPECT_TRUE(changed([](auto& s) { s.wall_extend_start_fraction = 0.65; }));
+  // A backflip's knee clearance and front brake (no probe is a flip).
+  EXPECT_TRUE(changed([](auto& s) { s.flip_hind_knee_clearance_rad = 0.25; }));
+  EXPECT_TRUE(changed([](auto& s) { s.flip_front_brake_share = 0.6; }));
   // The solver's settings, field by field.
   EXPECT_TRUE(changed([](auto& s) { s.de.population_size = 33; }));
   EXPECT_TRUE(changed([](auto& s) { s.de.strategy = planner::de::Strategy::Rand1Bin; }));
@@ -447,6 +450,7 @@ TEST(HotResponses, ReadyBytesAndTheCallersSuffixParseAsTheCallersResponse) {
     wheeljump::planner::v1::PlanJumpResponse expected = first;
     expected.set_request_id(id);
     expected.mutable_stats()->set_total_ms(0.0625);
+    expected.set_ready_response(true);  // says the plan was built for another caller's state
     const std::string ready = readyBytes(first);
     EXPECT_EQ(first.request_id(), "");  // the per-call fields are not in the ready bytes
     EXPECT_EQ(first.stats().total_ms(), 0.0);
@@ -454,6 +458,8 @@ TEST(HotResponses, ReadyBytesAndTheCallersSuffixParseAsTheCallersResponse) {
     ASSERT_TRUE(parsed.ParseFromString(ready + readySuffix(id, 0.0625)));
     EXPECT_EQ(parsed.SerializeAsString(), expected.SerializeAsString()) << id;
     EXPECT_EQ(parsed.request_id(), id);
+    EXPECT_TRUE(parsed.ready_response());
+    EXPECT_FALSE(first.ready_response());  // the ready bytes say it only through the suffix
     EXPECT_EQ(parsed.stats().cache_key(), "abcd");
     EXPECT_EQ(parsed.stats().evaluations(), 1234u);
     EXPECT_EQ(parsed.plan().decision_vector_size(), 50);

@@ -68,14 +68,19 @@ TEST(ServerConfig, RelativeSettingsFilesAreBesideTheConfigAndAbsoluteOnesUnchang
   EXPECT_EQ(ServerConfig::fromYamlString(text, "<test>").planner.settings_file, "sub/planner.yaml");
 }
 
-TEST(ServerConfig, HotResponsesAreOptionalOffByDefaultAndBounded) {
+// On by default (64 MB), also in a configuration written before the key; 0 turns it off.
+TEST(ServerConfig, HotResponsesAreOptionalOnByDefaultAndBounded) {
+  EXPECT_EQ(ServerConfig{}.cache.hot_responses_mb, 64.0);
   const std::string base = ServerConfig{}.toYaml();
   const auto without =
       ServerConfig::fromYamlString(replaceLine(base, "  hot_responses_mb:", ""), "<test>");
-  EXPECT_EQ(without.cache.hot_responses_mb, 0.0);
+  EXPECT_EQ(without.cache.hot_responses_mb, 64.0);
+  const auto off = ServerConfig::fromYamlString(
+      replaceLine(base, "  hot_responses_mb:", "  hot_responses_mb: 0"), "<test>");
+  EXPECT_EQ(off.cache.hot_responses_mb, 0.0);
   const auto with = ServerConfig::fromYamlString(
-      replaceLine(base, "  hot_responses_mb:", "  hot_responses_mb: 64"), "<test>");
-  EXPECT_DOUBLE_EQ(with.cache.hot_responses_mb, 64.0);
+      replaceLine(base, "  hot_responses_mb:", "  hot_responses_mb: 16"), "<test>");
+  EXPECT_DOUBLE_EQ(with.cache.hot_responses_mb, 16.0);
   for (const char* bad : {"-1", "5000", ".nan"}) {
     const std::string error = errorOf(
         replaceLine(base, "  hot_responses_mb:", std::string("  hot_responses_mb: ") + bad));

@@ -96,9 +96,13 @@ void corruptRow(const std::filesystem::path& db_path, const std::string& key_hex
   sqlite3_close(db);
 }
 
+// With the hot tier off, every hit is regenerated at its caller's state (v0 = 1.01 here, in the
+// bin of the miss's 1.0).
 TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
   TempDir dir("wj-it");
-  ServerProcess server(test::testConfig(dir.path()), dir / "server.yaml");
+  ServerConfig config = test::testConfig(dir.path());
+  config.cache.hot_responses_mb = 0.0;
+  ServerProcess server(config, dir / "server.yaml");
   client::PlannerClient c(clientFor(server.target()));
   v1::PlanJumpRequest r = standingRequest(1.0);
   r.set_request_id("robot-42");
@@ -119,27 +123,34 @@ TEST(Integration, PlanMissThenHitWithStatsAndRequestId) {
   expectWholePlan(hit.response);
   EXPECT_EQ(hit.response.stats().cache_key(), miss.response.stats().cache_key());
   EXPECT_NEAR(hit.response.plan().centroidal_trajectory(0).com_vx_m_s(), 1.01, 1e-9);
+  EXPECT_NEAR(hit.response.planned_for().v0_m_s(), 1.01, 1e-9);
+  EXPECT_FALSE(hit.response.ready_response());
+  const auto again = plan(c, standingRequest(1.02));  // regenerated again, not a ready response
+  ASSERT_TRUE(again.ok());
+  EXPECT_NEAR(again.response.planned_for().v0_m_s(), 1.02, 1e-9);
+  EXPECT_FALSE(again.response.ready_response());
   const auto s = stats(c);
-  EXPECT_EQ(s.requests(), 2u);
-  EXPECT_EQ(s.cache_hits(), 1u);
+  EXPECT_EQ(s.requests(), 3u);
+  EXPECT_EQ(s.cache_hits(), 2u);
   EXPECT_EQ(s.cache_misses(), 1u);
   EXPECT_EQ(s.cache_entries(), 1u);
   ASSERT_EQ(s.latencies_size(), 4);
   EXPECT_EQ(s.latencies(0).path(), "cache_hit");
-  EXPECT_EQ(s.latencies(0).count(), 1u);
+  EXPECT_EQ(s.latencies(0).count(), 2u);
   EXPECT_GT(s.latencies(0).p99_ms(), 0.0);
   EXPECT_GT(s.uptime_s(), 0.0);
 }
 
-// The hot tier (cache.hot_responses_mb > 0): the first hit of a bin is regenerated at its
-// caller's state and becomes the bin's ready response; later hits of the bin get that response
-// (its trajectory starts at the first caller's v0) as ready bytes with their own request id and
-// total_ms appended, which the client parses as one message; counted as hits.
-// Off by default: every hit is regenerated (the test above).
+// The hot tier (cache.hot_responses_mb > 0, the default): the first hit of a bin is regenerated
+// at its caller's state and becomes the bin's ready response; later hits of the bin get that
+// response (its trajectory starts at the first caller's v0, which planned_for says, and
+// ready_response is set) as ready bytes with their own request id and total_ms appended, which
+// the client parses as one message; counted as hits. Off, every hit is regenerated (the test
+// above).
 TEST(Integration, HotTierAnswersLaterHitsOfABinWithItsFirstHit) {
   TempDir dir("wj-it");
   ServerConfig config = test::testConfig(dir.path());
-  config.cache.hot_responses_mb = 16.0;
+  ASSERT_GT(config.cache.hot_responses_mb, 0.0);  // the default
   ServerProcess server(config, dir / "server.yaml");
   client::PlannerClient c(clientFor(server.target()));
   const auto miss = plan(c, standingRequest(1.0));
@@ -149,6 +160,8 @@ TEST(Integration, HotTierAnswersLaterHitsOfABinWithItsFirstHit) {
   ASSERT_TRUE(first.ok());
   EXPECT_EQ(first.response.source(), v1::PLAN_SOURCE_CACHE_HIT);
   EXPECT_NEAR(first.response.plan().centroidal_trajectory(0).com_vx_m_s(), 1.01, 1e-9);
+  EXPECT_NEAR(first.response.planned_for().v0_m_s(), 1.01, 1e-9);
+  EXPECT_FALSE(first.response.ready_response());
   v1::PlanJumpRequest later_request = standingRequest(1.02);
   later_request.set_request_id("later");
   const auto later = plan(c, later_request);
@@ -157,12 +170,18 @@ TEST(Integration, HotTierAnswersLaterHitsOfABinWithItsFirstHit) {
   EXPECT_EQ(later.response.request_id(), "later");
   EXPECT_GT(later.response.stats().total_ms(), 0.0);  // its own, merged into the ready stats
   EXPECT_NEAR(later.response.plan().centroidal_trajectory(0).com_vx_m_s(), 1.01, 1e-9);
+  EXPECT_NEAR(later.response.planned_for().v0_m_s(), 1.01, 1e-9);  // not the caller's 1.02
+  EXPECT_EQ(later.response.planned_for().joint_positions_rad_size(), 16);
+  EXPECT_TRUE(later.response.ready_response());
   v1::PlanJumpResponse a = first.response, b = later.response;
   for (auto* m : {&a, &b}) {
     m->clear_request_id();
     m->mutable_stats()->clear_total_ms();
+    m->clear_ready_response();
   }
-  EXPECT_EQ(a.SerializeAsString(), b.SerializeAsString());
+  EXPECT_EQ(a.SerializeAsString(), b.SerializeAsString())
+      << a.ShortDebugString().substr(0, 300) << "\n"
+      << b.ShortDebugString().substr(0, 300);
   // Another trajectory format is another ready response.
   later_request.set_trajectory_format(v1::TRAJECTORY_FORMAT_KNOTS);
   const auto knots = plan(c, later_request);

@@ -162,6 +162,20 @@ struct PlannerSettings {
   /// 1.58 m/s upward and 0.18 m/s faster forward than the start.
   std::vector<double> flip_initial_guess = {0.003, 0.018, 0.145,  0.400, 0.257, 2.589,
                                             0.178, 1.581, 12.531, 0.136, 0.464};
+  /// How far short of its extension stop (-0.5 rad) a backflip's hind knee pushes while the
+  /// hind wheels are on the ground [rad]. A 42 Nm flip whose hind knee straightened to 0.008
+  /// rad from the stop chattered in Simbody (the knee at the stop, then +-42 Nm at ~100 Hz
+  /// against the take-off gains) and turned 5.70 rad (docs/backflip.md, "A 42 Nm flip"); from
+  /// perturbed starts the 42 Nm flip's pushes held the knee 0.107 rad from the stop, nearly
+  /// straight, and chattered there too, so config/backflip-42nm.yaml keeps 0.25 ("From
+  /// perturbed starts"). The default 0.1 keeps the 57 Nm flip of the default guess.
+  double flip_hind_knee_clearance_rad = 0.1;
+  /// The share of the drives' torque envelope a backflip's front pair brakes with once lifted
+  /// at t1 (every other lift-off: 0.8, kBrakeTorqueShare). The 42 Nm flip's front knees extend
+  /// at 26-28 rad/s into t1, 0.15 rad from their stop: braked at 0.8, Simbody's front knee
+  /// demanded 1.00-1.13 x its envelope from perturbed starts; config/backflip-42nm.yaml brakes
+  /// at 0.6 (docs/backflip.md, "From perturbed starts").
+  double flip_front_brake_share = 0.8;
 
   // --- cost (paper Eq. 10): sum over violated classes W_n (10^(n+3) + 10^n sigma_n), plus the
   // target error and the energy.

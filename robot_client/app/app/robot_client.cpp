@@ -52,7 +52,8 @@ struct Options {
   bool json_out = false;
   bool fast = false;
   std::vector<std::string> can_interfaces = {"can0", "can1", "can2", "can3"};
-  std::string plant;  // sim backend: plant file (sim/plant.h); "" = the nominal robot
+  std::string plant;        // sim backend: plant file (sim/plant.h); "" = the nominal robot
+  std::string request_log;  // every PlanJumpRequest as a line of JSON; "" = none
 };
 
 // The snapshot strip, the animation and the 3D replay page asked for on the command line.
@@ -98,11 +99,14 @@ int run(const Options& opt) {
   const bool simulated = opt.backend == "sim";
 
   std::unique_ptr<rc::PlanRequester> requester;
-  if (!opt.planner.empty())
-    requester = std::make_unique<rc::PlanRequester>(opt.planner, settings.planner, robot,
+  if (!opt.planner.empty()) {
+    rc::PlannerConnection connection = settings.planner;
+    connection.request_log_file = opt.request_log;
+    requester = std::make_unique<rc::PlanRequester>(opt.planner, connection, robot,
                                                     settings.executor, 9.81);
-  else
+  } else {
     spdlog::warn("no --planner given: the jump will be aborted at the decision point");
+  }
 
   rc::MpcWorker mpc(controller, settings.loop.mpc_period_s, /*lockstep=*/simulated);
   rc::ControlLoop loop(robot, settings, scenario, backend->robot(), controller, mpc,
@@ -224,6 +228,9 @@ int main(int argc, char** argv) {
   app.add_option("--gif", opt.gif, "side-view animation of the run (GIF)");
   app.add_option("--html", opt.html, "3D replay page of the run (HTML, three.js inlined)");
   app.add_flag("--json", opt.json_out, "print the summary as JSON");
+  app.add_option("--request-log", opt.request_log,
+                 "append every plan request sent, one line of JSON each (replay: planner_cli "
+                 "plan --request)");
   app.add_flag("--fast", opt.fast,
                "sim backend: do not pace simulated time to the wall clock (plan latency then "
                "weighs more)");

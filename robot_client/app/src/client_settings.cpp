@@ -64,6 +64,11 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.takeoff_to_wall_m, 0.3, 3.0, p + "takeoff_to_wall_m");
   inRange(s.takeoff_lead_m, -0.2, 0.2, p + "takeoff_lead_m");
   inRange(s.nmpc_base_height_m, 0.2, 0.45, p + "nmpc_base_height_m");
+  if (s.has_takeoff_posture) {
+    inRange(s.takeoff_hfe_rad, -0.5, 2.5, p + "takeoff_posture.hfe_rad");
+    inRange(s.takeoff_kfe_rad, -2.7, -0.5, p + "takeoff_posture.kfe_rad");
+    inRange(s.takeoff_posture_max_offset_rad, 0.001, 0.1, p + "takeoff_posture.max_offset_rad");
+  }
   inRange(s.decision_margin_m, 0.0, 10.0, p + "decision_margin_m");
   inRange(s.target_dx_m, -3.0, 5.0, p + "target.dx_m");
   inRange(s.target_com_height_m, 0.1, 1.5, p + "target.com_height_m");
@@ -115,6 +120,14 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   wall.finish();
   s.takeoff_to_wall_m = m.number("takeoff_to_wall_m");
   if (m.has("takeoff_lead_m")) s.takeoff_lead_m = m.number("takeoff_lead_m");
+  if (m.has("takeoff_posture")) {
+    StrictYamlMap tp = m.map("takeoff_posture");
+    s.has_takeoff_posture = true;
+    s.takeoff_hfe_rad = tp.number("hfe_rad");
+    s.takeoff_kfe_rad = tp.number("kfe_rad");
+    s.takeoff_posture_max_offset_rad = tp.number("max_offset_rad");
+    tp.finish();
+  }
   s.nmpc_base_height_m = m.number("nmpc_base_height_m");
   s.decision_margin_m = m.number("decision_margin_m");
   StrictYamlMap target = m.map("target");

@@ -208,6 +208,9 @@ void ControlLoop::postPlanRequest() {
       r.qd[l] = r.qd[rr] = qd;
     }
   }
+  // The legs are planned from the take-off posture the executor imposes, if the scenario has
+  // one and the measured crouch is near it (ScenarioSettings::has_takeoff_posture).
+  (void)applyTakeoffPosture(scenario_, r.q);
   r.target_dx_m = scenario_.target_dx_m;
   r.target_height_m = scenario_.target_com_height_m;
   r.target_pitch_change_rad = scenario_.target_pitch_change_rad;

@@ -1,7 +1,11 @@
 #include "robot_client/plan_requester.h"
 
+#include <google/protobuf/util/json_util.h>
+
 #include <cmath>
+#include <fstream>
 #include <future>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
@@ -127,8 +131,29 @@ Eigen::Vector3d requestVelocity(const Eigen::Vector3d& v_WB, const Eigen::Quater
   if (!(heading.squaredNorm() > 1e-12)) return v_WB;
   const Eigen::Vector3d h = heading.normalized();
   const double along = v_WB.dot(h);
-  return along < kPlannerLowestSpeedMS ? Eigen::Vector3d(v_WB + (kPlannerLowestSpeedMS - along) * h)
-                                       : v_WB;
+  // Clamped a hair inside the planner's range: the service projects the sent velocity on the
+  // heading it reads from the sent quaternion, and at exactly -1 m/s its last bit fell outside
+  // (noise seed 3: "must be in [-1, 4], got -1").
+  const double lowest = kPlannerLowestSpeedMS + kRequestSpeedMarginMS;
+  return along < lowest ? Eigen::Vector3d(v_WB + (lowest - along) * h) : v_WB;
+}
+
+bool applyTakeoffPosture(const ScenarioSettings& scenario,
+                         std::array<double, model::kNumJoints>& q) {
+  if (!scenario.has_takeoff_posture) return false;
+  const double tol = scenario.takeoff_posture_max_offset_rad;
+  for (const model::Leg leg : model::kLegs) {
+    const double hfe = q[model::jointIndex(leg, model::JointKind::HFE)];
+    const double kfe = q[model::jointIndex(leg, model::JointKind::KFE)];
+    if (!(std::abs(hfe - scenario.takeoff_hfe_rad) <= tol) ||
+        !(std::abs(kfe - scenario.takeoff_kfe_rad) <= tol))
+      return false;
+  }
+  for (const model::Leg leg : model::kLegs) {
+    q[model::jointIndex(leg, model::JointKind::HFE)] = scenario.takeoff_hfe_rad;
+    q[model::jointIndex(leg, model::JointKind::KFE)] = scenario.takeoff_kfe_rad;
+  }
+  return true;
 }
 
 namespace {
@@ -215,6 +240,16 @@ std::string convertDense(const v1::Plan& p, planner::JumpPlan& plan) {
   return "";
 }
 
+// One line of JSON per request, appended (the worker thread; never the loop).
+void logRequest(const v1::PlanJumpRequest& request, const std::string& path) {
+  std::string json;
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  if (!google::protobuf::util::MessageToJsonString(request, &json, options).ok()) return;
+  std::ofstream out(path, std::ios::app);
+  out << json << "\n";
+}
+
 }  // namespace
 
 std::string PlanRequester::convert(const v1::PlanJumpResponse& response, planner::JumpPlan& plan) {
@@ -295,7 +330,9 @@ void PlanRequester::handle(const PlanRequestSnapshot& snapshot) {
   const auto start = std::chrono::steady_clock::now();
   const auto deadline =
       std::chrono::milliseconds(static_cast<long>(connection_.deadline_s * 1000.0));
-  client::PlanResult result = client_->planJump(makeRequest(snapshot, connection_), deadline).get();
+  const v1::PlanJumpRequest request = makeRequest(snapshot, connection_);
+  if (!connection_.request_log_file.empty()) logRequest(request, connection_.request_log_file);
+  client::PlanResult result = client_->planJump(request, deadline).get();
   PlanRequestInfo info;
   info.latency_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -308,8 +345,21 @@ void PlanRequester::handle(const PlanRequestSnapshot& snapshot) {
   } else {
     const v1::PlanJumpResponse& r = result.response;
     info.source = sourceName(r.source());
+    // The service's hot tier answered with the plan of an earlier request of the same cache
+    // bin (planned_for, within half a bin of this state); the executor tracks it from the
+    // robot's own state all the same (docs/service.md, "Hot tier").
+    if (r.ready_response()) info.source += "_ready";
     info.verification = verificationName(r.verification().status());
     info.summary = r.feasibility().summary();
+    if (r.ready_response()) {
+      const Eigen::Vector3d x_B = snapshot.q_WB.normalized() * Eigen::Vector3d::UnitX();
+      const Eigen::Vector2d h = Eigen::Vector2d(x_B.x(), x_B.y()).normalized();
+      std::ostringstream from;
+      from << std::fixed << std::setprecision(3) << " (planned for v0 " << r.planned_for().v0_m_s()
+           << " m/s, pitch " << r.planned_for().pitch_rad() << " rad; this state v0 "
+           << snapshot.v_WB.head<2>().dot(h) << " m/s)";
+      info.summary += from.str();
+    }
     info.feasible = r.feasibility().feasible();
     info.predicted = fromProto(r.predicted());
     info.simulated = fromProto(r.verification().simulated());

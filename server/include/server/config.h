@@ -106,9 +106,10 @@ struct CacheConfig {
   double posture_bin_rad = 0.02;             ///< bin of the non-wheel joint positions
   int warm_start_neighbors = 2;              ///< cached neighbours seeding a miss, >= 0
   double warm_start_max_distance_m_s = 0.5;  ///< how far in v0 a neighbour may be [m/s]
-  /// Ready responses of bins kept for hits [MB], 0 = off: a hit after the first of its bin is
-  /// then the first one's response (HotResponses; docs/service.md, "Hot tier")
-  double hot_responses_mb = 0.0;
+  /// Ready responses of bins kept for hits [MB], 0 = off (every hit regenerated at its caller's
+  /// state): a hit after the first of its bin is the first one's response, marked
+  /// ready_response (HotResponses; docs/service.md, "Hot tier"). May be left out (= 64).
+  double hot_responses_mb = 64.0;
   RedisConfig redis;  ///< used when backend is Redis
 };
 

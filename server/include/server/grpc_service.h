@@ -9,6 +9,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdint>
+#include <string>
 
 #include "server/config.h"
 #include "server/hot_responses.h"
@@ -50,6 +52,14 @@ class JumpPlannerService final : public JumpPlannerBase {
  private:
   friend class PlanJumpReactor;
   friend class WarmCacheReactor;
+  /// The hot tier's slot of a request: its key and the cache entry it would be built from.
+  struct HotSlot {
+    std::string key;               ///< "" when the request is not a hit
+    std::uint64_t generation = 0;  ///< the cache entry's (SolutionCache::find)
+  };
+  /// Answers `r` into `response_bytes` from the hot tier if its bin has ready bytes built from
+  /// the entry the cache holds now (true); else fills `slot` for the hit's regeneration.
+  bool answerHot(const PlanRequest& r, grpc::ByteBuffer* response_bytes, HotSlot* slot);
   /// Admits one more call, or returns false when limits.max_inflight_calls are in progress.
   bool admit();
   void release() { inflight_.fetch_sub(1); }

@@ -161,6 +161,17 @@ TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
   // The robot is chosen by configuration: the paper's 57 Nm knee (docs/backflip.md).
   EXPECT_EQ(flip.actuators_file, "actuators-57nm.yaml");
   EXPECT_EQ(s.scenario("forward").actuators_file, "actuators.yaml");
+  // The same flip on the real robot: only the actuators differ.
+  const ScenarioSettings& real = s.scenario("backflip_42nm");
+  EXPECT_EQ(real.actuators_file, "actuators.yaml");
+  EXPECT_EQ(real.mode, flip.mode);
+  EXPECT_DOUBLE_EQ(real.target_pitch_change_rad, flip.target_pitch_change_rad);
+  EXPECT_DOUBLE_EQ(real.target_dx_m, flip.target_dx_m);
+  EXPECT_DOUBLE_EQ(real.run_up_speed_m_s, flip.run_up_speed_m_s);
+  EXPECT_DOUBLE_EQ(real.speed_tolerance_m_s, flip.speed_tolerance_m_s);
+  EXPECT_TRUE(real.has_takeoff_posture);
+  EXPECT_DOUBLE_EQ(real.takeoff_hfe_rad, flip.takeoff_hfe_rad);
+  EXPECT_DOUBLE_EQ(real.takeoff_kfe_rad, flip.takeoff_kfe_rad);
 }
 
 TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
@@ -195,13 +206,73 @@ TEST(ClientRequest, SpeedIsClampedToThePlannersLowest) {
   const Eigen::Vector3d side(-std::sin(0.7), std::cos(0.7), 0.0);
   const Eigen::Vector3d fast = -1.03 * h + 0.2 * side + Eigen::Vector3d(0.0, 0.0, 0.1);
   const Eigen::Vector3d sent = requestVelocity(fast, q_WB);
-  EXPECT_NEAR(sent.dot(h), kPlannerLowestSpeedMS, 1e-12);
+  EXPECT_NEAR(sent.dot(h), kPlannerLowestSpeedMS + kRequestSpeedMarginMS, 1e-12);
+  EXPECT_GT(sent.dot(h), kPlannerLowestSpeedMS);
   EXPECT_NEAR(sent.dot(side), 0.2, 1e-12);
   EXPECT_NEAR(sent.z(), 0.1, 1e-12);
   const Eigen::Vector3d slow = -0.97 * h + 0.2 * side;
   EXPECT_TRUE(requestVelocity(slow, q_WB).isApprox(slow, 1e-15));
   const Eigen::Vector3d forward = 3.0 * h;
   EXPECT_TRUE(requestVelocity(forward, q_WB).isApprox(forward, 1e-15));
+}
+
+// The backflip is requested from its take-off posture when the measured crouch is near it: every
+// HFE and KFE replaced, the wheels and hip abductions untouched; one leg beyond the offset and
+// the measured angles go out unchanged. Without the key, nothing changes.
+TEST(ClientRequest, TheTakeoffPostureReplacesANearbyCrouch) {
+  const ScenarioSettings flip =
+      parseClientSettings(shippedConfig(), "robot_client.yaml").scenario("backflip");
+  ASSERT_TRUE(flip.has_takeoff_posture);
+  EXPECT_DOUBLE_EQ(flip.takeoff_hfe_rad, 1.0);
+  EXPECT_DOUBLE_EQ(flip.takeoff_kfe_rad, -2.0);
+  std::array<double, model::kNumJoints> measured{};
+  for (const model::Leg leg : model::kLegs) {
+    measured[model::jointIndex(leg, model::JointKind::HAA)] = 0.004;
+    measured[model::jointIndex(leg, model::JointKind::HFE)] = 1.0115;
+    measured[model::jointIndex(leg, model::JointKind::KFE)] = -1.9947;
+    measured[model::jointIndex(leg, model::JointKind::Wheel)] = -8.4;
+  }
+  std::array<double, model::kNumJoints> q = measured;
+  EXPECT_TRUE(applyTakeoffPosture(flip, q));
+  for (const model::Leg leg : model::kLegs) {
+    EXPECT_DOUBLE_EQ(q[model::jointIndex(leg, model::JointKind::HFE)], 1.0);
+    EXPECT_DOUBLE_EQ(q[model::jointIndex(leg, model::JointKind::KFE)], -2.0);
+    EXPECT_DOUBLE_EQ(q[model::jointIndex(leg, model::JointKind::HAA)], 0.004);
+    EXPECT_DOUBLE_EQ(q[model::jointIndex(leg, model::JointKind::Wheel)], -8.4);
+  }
+  // One knee 0.04 rad off (beyond max_offset_rad 0.03): sent as measured.
+  q = measured;
+  q[model::jointIndex(model::Leg::RH, model::JointKind::KFE)] = -2.04;
+  const auto before = q;
+  EXPECT_FALSE(applyTakeoffPosture(flip, q));
+  EXPECT_EQ(q, before);
+  // The forward scenario has none.
+  q = measured;
+  EXPECT_FALSE(applyTakeoffPosture(
+      parseClientSettings(shippedConfig(), "robot_client.yaml").scenario("forward"), q));
+  EXPECT_EQ(q, measured);
+}
+
+TEST(ClientSettings, TheTakeoffPostureIsBoundedAndComplete) {
+  const auto message = [](const std::string& text) {
+    return test::errorOf<std::invalid_argument>(
+        [&] { return parseClientSettings(text, "x.yaml"); });
+  };
+  const std::string shipped = shippedConfig();
+  const std::string far = replace(shipped, "max_offset_rad: 0.03", "max_offset_rad: 0.3");
+  ASSERT_NE(far, shipped);
+  EXPECT_THAT(message(far),
+              test::HasSubstr("scenarios.backflip.takeoff_posture.max_offset_rad must be in"))
+      << message(far);
+  const std::string knee = replace(shipped, "      kfe_rad: -2.0", "      kfe_rad: -3.0");
+  ASSERT_NE(knee, shipped);
+  EXPECT_THAT(message(knee), test::HasSubstr("takeoff_posture.kfe_rad must be in"))
+      << message(knee);
+  const std::string missing = replace(shipped, "      hfe_rad: 1.0", "      hfe_radius: 1.0");
+  ASSERT_NE(missing, shipped);
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, "x.yaml"); }),
+      test::HasSubstr("missing key 'scenarios.backflip.takeoff_posture.hfe_rad'"));
 }
 
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {

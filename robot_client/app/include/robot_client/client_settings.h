@@ -74,6 +74,10 @@ struct PlannerConnection {
   std::string tls_cert_file;     ///< this robot's certificate ("" = no client certificate)
   std::string tls_key_file;      ///< its key
   std::string tls_server_name;   ///< expected name in the service's certificate ("" = host)
+  /// Not from the YAML (robot_client --request-log): every PlanJumpRequest sent is appended to
+  /// this file as one line of JSON (proto field names), for replaying it outside the loop
+  /// (planner_cli plan --request). "" = none. Written by the requester's worker thread.
+  std::string request_log_file;
 };
 
 /// What the robot does once a jump's landing is over.
@@ -88,6 +92,9 @@ std::string_view toString(AfterLanding after);
 /// a plan request's measured speed is clamped to it (ControlLoop), so that a backward run-up at
 /// -1 m/s, measured within its speed_tolerance_m_s past it, is still planned.
 inline constexpr double kPlannerLowestSpeedMS = -1.0;
+/// A request's speed is clamped this far inside kPlannerLowestSpeedMS, so that the service's
+/// own projection on the heading cannot round it past the bound [m/s].
+inline constexpr double kRequestSpeedMarginMS = 1e-9;
 
 /// What a scenario does. Forward: roll up to `run_up_speed_m_s`, request a plan, jump over the
 /// wall at `wall_x_m` (world), land and stop. Course: several walls (`wall_x_m` a list), each
@@ -115,6 +122,17 @@ struct ScenarioSettings {
   /// edge where the simulated jump and the plan differ (docs/robust.md, "Take-off lead").
   /// Optional YAML key, default 0.
   double takeoff_lead_m = 0.0;
+  /// The take-off posture (optional YAML `takeoff_posture: {hfe_rad, kfe_rad, max_offset_rad}`,
+  /// every leg alike): the plan is requested from it instead of the measured leg angles when
+  /// each measured HFE and KFE is within max_offset_rad of it (else from the measured ones).
+  /// The executor imposes the plan's first posture at the take-off's start (stiff PD), so the
+  /// legs are a commanded quantity, unlike the speed, the pitch and its rate, which stay
+  /// measured. The backflip's plans and their Simbody verdicts jump with 5-10 mrad of leg
+  /// angle (docs/backflip.md, "Session 15"), and the NMPC's crouch wanders by that much.
+  bool has_takeoff_posture = false;
+  double takeoff_hfe_rad = 1.0;                  ///< [rad]
+  double takeoff_kfe_rad = -2.0;                 ///< [rad]
+  double takeoff_posture_max_offset_rad = 0.03;  ///< [rad]
   /// Base height the NMPC holds while standing and rolling [m]: the run-up is done in the
   /// posture the jump starts from (the planner plans from the measured posture).
   double nmpc_base_height_m = 0.36;

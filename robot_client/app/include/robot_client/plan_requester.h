@@ -60,9 +60,16 @@ struct PlanRequestSnapshot {
 /// past it. Unchanged otherwise.
 Eigen::Vector3d requestVelocity(const Eigen::Vector3d& v_WB, const Eigen::Quaterniond& q_WB);
 
+/// The leg angles a plan request carries with a take-off posture (ScenarioSettings::
+/// has_takeoff_posture): every HFE and KFE of `q` set to the scenario's when each measured one
+/// is within its takeoff_posture_max_offset_rad; `q` unchanged otherwise (the wheels and the
+/// hip abductions are never changed). Returns whether the posture was applied.
+bool applyTakeoffPosture(const ScenarioSettings& scenario,
+                         std::array<double, model::kNumJoints>& q);
+
 struct PlanRequestInfo {
   double latency_ms = 0.0;   ///< post() to the answer, wall time
-  std::string source;        ///< cache_hit, cache_miss, warm_start, coalesced
+  std::string source;        ///< cache_hit, cache_hit_ready, cache_miss, warm_start, coalesced
   std::string verification;  ///< passed, failed, not_run
   std::string summary;       ///< feasibility summary or the error status
   int attempts = 0;

@@ -1,0 +1,119 @@
+// The stance torques' accelerations (planner/src/jump_model_stance_dynamics.h) against finite
+// differences of converged contact samples: the joints' from their rates, the base origin's
+// from its position, over each contact segment of every preset and the backflip, its first
+// and last instants included (one-sided differences there).
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <iostream>
+
+#include "jump_model_internal.h"
+#include "jump_model_stance_dynamics.h"
+#include "planner/jump_model.h"
+#include "planner/jump_planner.h"
+#include "planner/presets.h"
+
+namespace wj::planner::detail {
+namespace {
+
+// A converged sample (to 1e-14 m, so that the differences see no iteration noise).
+Sample sampleAt(const JumpModelConstants& M, const Solved& S, double t, bool phase2) {
+  Sample smp;
+  contactSample(M, S, t, smp, phase2, M.c0, /*converge=*/true, 1e-14);
+  return smp;
+}
+
+// The derivative at t of f over [a, b], second order: central, or one-sided at an end.
+template <class F>
+auto derivativeAt(F f, double t, double a, double b, double h) {
+  if (t - h < a) return ((-3.0 * f(t) + 4.0 * f(t + h) - f(t + 2.0 * h)) / (2.0 * h)).eval();
+  if (t + h > b) return ((3.0 * f(t) - 4.0 * f(t - h) + f(t - 2.0 * h)) / (2.0 * h)).eval();
+  return ((f(t + h) - f(t - h)) / (2.0 * h)).eval();
+}
+
+// The second derivative likewise (one-sided: the four-point formula, second order).
+template <class F>
+auto secondDerivativeAt(F f, double t, double a, double b, double h) {
+  if (t - h < a)
+    return ((2.0 * f(t) - 5.0 * f(t + h) + 4.0 * f(t + 2.0 * h) - f(t + 3.0 * h)) / (h * h)).eval();
+  if (t + h > b)
+    return ((2.0 * f(t) - 5.0 * f(t - h) + 4.0 * f(t - 2.0 * h) - f(t - 3.0 * h)) / (h * h)).eval();
+  return ((f(t + h) - 2.0 * f(t) + f(t - h)) / (h * h)).eval();
+}
+
+TEST(StanceDynamics, AccelerationsMatchFiniteDifferencesOfTheContactSamples) {
+  const auto robot = model::RobotModel::loadDefault();
+  const JumpPlanner planner(robot, PlannerSettings{});
+  for (const char* task : {"forward_hw", "forward", "vertical", "backflip"}) {
+    SCOPED_TRACE(task);
+    const Scenario sc = makePreset(planner, task);
+    PlanOptions opts;
+    opts.seed = 7;
+    opts.threads = 2;
+    const Eigen::VectorXd u = planner.plan(sc.task, sc.initial, opts).u;
+    const JumpModel model(robot, planner.settings(), sc.task, sc.initial);
+    const JumpModelConstants& M = model.constants();
+    Solved S;
+    ASSERT_TRUE(solve(M, u, S));
+    const StanceDynamics D(M, S);
+    // The contact segments: [0, t1] on four wheels and (t1, t2] on the hind pair if two-step.
+    struct Segment {
+      double a, b;
+      bool phase2;
+    };
+    std::vector<Segment> segments{{0.0, S.two_step ? S.t1 : S.t2, false}};
+    if (S.two_step) segments.push_back({S.t1, S.t2, true});
+    double worst_qdd = 0.0, worst_base = 0.0;
+    int checked = 0;
+    for (const Segment& seg : segments) {
+      // Inside a two-step's hind-only segment the lifted front pair's braking has corners
+      // (its envelope-limited part's end, rest), where q'' jumps: differences skip them.
+      auto across_corner = [&](double t, double reach) {
+        if (!seg.phase2) return false;
+        for (const JointBrake& b : S.front_brake)
+          for (const double corner : {S.t1 + b.t_a, S.t1 + b.t_stop})
+            if (std::abs(t - corner) <= reach) return true;
+        return false;
+      };
+      constexpr int kPoints = 41;
+      for (int k = 0; k < kPoints; ++k) {
+        const double t = seg.a + (seg.b - seg.a) * k / (kPoints - 1);
+        if (across_corner(t, 4e-4)) continue;
+        const Sample smp = sampleAt(M, S, t, seg.phase2);
+        const StanceAccelerations acc = stanceAccelerations(M, S, D, smp);
+        auto rates = [&](double ti) {
+          const Sample s = sampleAt(M, S, ti, seg.phase2);
+          Eigen::Vector4d v;
+          v << s.hind.qd, s.front.qd;
+          return v;
+        };
+        auto base = [&](double ti) {
+          const Sample s = sampleAt(M, S, ti, seg.phase2);
+          return Eigen::Vector2d(Eigen::Vector2d(s.s.x, s.s.z) - s.R * s.c);
+        };
+        const Eigen::Vector4d qdd_fd = derivativeAt(rates, t, seg.a, seg.b, 1e-6);
+        const Eigen::Vector2d base_fd = secondDerivativeAt(base, t, seg.a, seg.b, 1e-4);
+        Eigen::Vector4d qdd;
+        qdd << acc.qdd[0], acc.qdd[1];
+        // Relative to the size of the accelerations (up to ~1,000 rad/s^2 at the knees).
+        worst_qdd = std::max(worst_qdd, (qdd - qdd_fd).cwiseAbs().maxCoeff() /
+                                            std::max(1.0, qdd.cwiseAbs().maxCoeff()));
+        worst_base =
+            std::max(worst_base, (acc.base - base_fd).norm() / std::max(1.0, acc.base.norm()));
+        EXPECT_NEAR((acc.base_pos - base(t)).norm(), 0.0, 1e-12);
+        ++checked;
+      }
+    }
+    std::cout << task << ": " << checked << " samples, largest relative difference q'' "
+              << worst_qdd << ", base " << worst_base << "\n";
+    EXPECT_GT(checked, 40);
+    EXPECT_LT(worst_qdd, 1e-6);
+    EXPECT_LT(worst_base, 1e-3);
+  }
+}
+
+}  // namespace
+}  // namespace wj::planner::detail
