@@ -78,6 +78,11 @@ if case in ("backflip", "backflip_42nm"):
     check(abs(sim["final_rotation_rad"] - 6.283) < 0.3, d["verdict"])
     check(sim["body_touched_ground"] is False, "the body touched the ground")
     check(d["final_mode"] == "STAND", d["final_mode"])
+    # The hind wheels slip when the front pair lifts; the estimator must not follow them
+    # (docs/estimator.md, "Slipping wheels in a jump"): velocity RMS 0.047-0.054 m/s with the
+    # traction check, 0.076-0.091 m/s without it (both robots, session 16).
+    check(sim["estimator_velocity_rms_m_s"] < 0.065,
+          f"estimator velocity RMS {sim['estimator_velocity_rms_m_s']:.3f} m/s")
     print("OK", case); sys.exit(0)
 if case == "abort":
     check(rc == 3, f"exit status 3 expected, got {rc}")
