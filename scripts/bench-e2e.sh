@@ -5,7 +5,7 @@
 # course (two walls 10 m apart, jumped in turn), then the vertical jump, then N seeds of the
 # backflip (rolling backward at 1 m/s, against a second service on the 57 Nm-knee robot of
 # the scenario's actuators_file; docs/backflip.md), then N seeds of the same flip on the real
-# 42 Nm robot (backflip_42nm, a third service with config/backflip-42nm-client.yaml's settings).
+# 42 Nm robot (backflip_42nm, a third service with config/backflip-42nm.yaml's settings).
 # Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
 # WJ_BENCH_SCENARIOS (space-separated, default all: forward platform course vertical backflip
@@ -68,7 +68,7 @@ if wanted backflip_42nm; then
   stop_planner_server
   start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_42nm_flip.sqlite" \
     "$WORK/planner_server_42nm_flip.yaml" "$WORK/server_42nm_flip.log" actuators.yaml \
-    config/backflip-42nm-client.yaml
+    config/backflip-42nm.yaml
   run_seeds backflip_42nm
 fi
 /usr/bin/python3 - "$WORK" "$SEEDS" "$SCENARIOS" <<'PY'

@@ -10,7 +10,7 @@
 # backflip: rolling backward (1 m/s) on the 57 Nm-knee robot (its own service): the robot asks
 # for the flip from its take-off posture, flies the verified plan, turns a full turn, lands
 # upright and stops (docs/backflip.md, "Session 15"). backflip_42nm: the same on the real 42 Nm
-# robot, its service on config/backflip-42nm-client.yaml's planner settings.
+# robot, its service on config/backflip-42nm.yaml's planner settings.
 # abort: the service is unreachable; the robot must not jump and
 # must stop before the wall. The test configuration gives the planner a longer deadline and the
 # wall more run-up room than the shipped one, because CI machines are slower and shared.
@@ -39,7 +39,7 @@ if [ "$CASE" = backflip ]; then
   start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators-57nm.yaml
 elif [ "$CASE" = backflip_42nm ]; then
   start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators.yaml \
-    config/backflip-42nm-client.yaml
+    config/backflip-42nm.yaml
 elif [ "$CASE" != abort ]; then
   start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log"
 else
