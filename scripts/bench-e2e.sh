@@ -60,7 +60,8 @@ fi
 if wanted backflip; then
   stop_planner_server
   start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_57nm.sqlite" \
-    "$WORK/planner_server_57nm.yaml" "$WORK/server_57nm.log" actuators-57nm.yaml
+    "$WORK/planner_server_57nm.yaml" "$WORK/server_57nm.log" actuators-57nm.yaml \
+    config/backflip-57nm.yaml
   run_seeds backflip
 fi
 # The real robot's flip (42 Nm): its planner settings file, same port.

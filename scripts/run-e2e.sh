@@ -45,7 +45,8 @@ run course
 # The backflip's robot (the scenario's actuators_file) differs: the service is restarted on it.
 stop_planner_server
 start_planner_server "$BIN" "$PORT" "$(pwd)/out/plan_cache_57nm.sqlite" \
-  out/planner_server_57nm.yaml out/planner_server_57nm.log actuators-57nm.yaml
+  out/planner_server_57nm.yaml out/planner_server_57nm.log actuators-57nm.yaml \
+  config/backflip-57nm.yaml
 # The client's backflip counts like every other scenario (10 of 10 noise seeds flipped, landed
 # upright and stopped: docs/backflip.md, "Session 15"); its summary prints the knee's peak torque
 # against its limit and the rotation at touchdown.

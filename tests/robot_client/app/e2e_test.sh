@@ -36,7 +36,8 @@ grep -q "x_m: 20.0" "$WORK/client.yaml" || { echo "could not move the wall in th
 
 target="127.0.0.1:${PORT}"
 if [ "$CASE" = backflip ]; then
-  start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators-57nm.yaml
+  start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators-57nm.yaml \
+    config/backflip-57nm.yaml
 elif [ "$CASE" = backflip_42nm ]; then
   start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators.yaml \
     config/backflip-42nm.yaml
