@@ -4,7 +4,8 @@
 # then N seeds of the jump onto the 0.25 m platform (simulated robot), then N seeds of the
 # course (two walls 10 m apart, jumped in turn), then the vertical jump, then N seeds of the
 # backflip (rolling backward at 1 m/s, against a second service on the 57 Nm-knee robot of
-# the scenario's actuators_file; docs/backflip.md), then N seeds of the same flip on the real
+# the scenario's actuators_file, with config/backflip-57nm.yaml's settings; docs/backflip.md),
+# then N seeds of the same flip on the real
 # 42 Nm robot (backflip_42nm, a third service with config/backflip-42nm.yaml's settings).
 # Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
