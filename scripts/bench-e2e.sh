@@ -4,8 +4,9 @@
 # then N seeds of the jump onto the 0.25 m platform (simulated robot), then N seeds of the
 # course (two walls 10 m apart, jumped in turn), then the vertical jump, then N seeds of the
 # backflip (rolling backward at 1 m/s, against a second service on the 57 Nm-knee robot of
-# the scenario's actuators_file; docs/backflip.md), then N seeds of the same flip on the real
-# 42 Nm robot (backflip_42nm, a third service with config/backflip-42nm-client.yaml's settings).
+# the scenario's actuators_file, with config/backflip-57nm.yaml's settings; docs/backflip.md),
+# then N seeds of the same flip on the real
+# 42 Nm robot (backflip_42nm, a third service with config/backflip-42nm.yaml's settings).
 # Prints one JSON document: per-seed outcome and the totals.
 # Usage: scripts/bench-e2e.sh [build dir] [seeds] [extra robot_client options...]
 # WJ_BENCH_SCENARIOS (space-separated, default all: forward platform course vertical backflip
@@ -60,7 +61,8 @@ fi
 if wanted backflip; then
   stop_planner_server
   start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_57nm.sqlite" \
-    "$WORK/planner_server_57nm.yaml" "$WORK/server_57nm.log" actuators-57nm.yaml
+    "$WORK/planner_server_57nm.yaml" "$WORK/server_57nm.log" actuators-57nm.yaml \
+    config/backflip-57nm.yaml
   run_seeds backflip
 fi
 # The real robot's flip (42 Nm): its planner settings file, same port.
@@ -68,7 +70,7 @@ if wanted backflip_42nm; then
   stop_planner_server
   start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_42nm_flip.sqlite" \
     "$WORK/planner_server_42nm_flip.yaml" "$WORK/server_42nm_flip.log" actuators.yaml \
-    config/backflip-42nm-client.yaml
+    config/backflip-42nm.yaml
   run_seeds backflip_42nm
 fi
 /usr/bin/python3 - "$WORK" "$SEEDS" "$SCENARIOS" <<'PY'

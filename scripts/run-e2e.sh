@@ -8,7 +8,7 @@
 # without stopping, then a stop) and the backflip (rolling backward at 1 m/s, a full backward
 # turn; its robot has the paper's 57 Nm knee, actuators-57nm.yaml, so a second service runs for
 # it, docs/backflip.md), then the same flip on the real 42 Nm robot (backflip_42nm, a third
-# service with config/backflip-42nm-client.yaml's planner settings). Summaries on
+# service with config/backflip-42nm.yaml's planner settings). Summaries on
 # stdout, telemetry and figures in out/. Usage: scripts/run-e2e.sh [build dir] [seed]
 set -euo pipefail
 # DE threads sleep at the per-generation barrier (docs/planner.md, "Threads").
@@ -45,18 +45,19 @@ run course
 # The backflip's robot (the scenario's actuators_file) differs: the service is restarted on it.
 stop_planner_server
 start_planner_server "$BIN" "$PORT" "$(pwd)/out/plan_cache_57nm.sqlite" \
-  out/planner_server_57nm.yaml out/planner_server_57nm.log actuators-57nm.yaml
+  out/planner_server_57nm.yaml out/planner_server_57nm.log actuators-57nm.yaml \
+  config/backflip-57nm.yaml
 # The client's backflip counts like every other scenario (10 of 10 noise seeds flipped, landed
 # upright and stopped: docs/backflip.md, "Session 15"); its summary prints the knee's peak torque
 # against its limit and the rotation at touchdown.
 run backflip
 # The same flip on the real robot (42 Nm): the service on actuators.yaml with the flip's planner
-# settings (config/backflip-42nm-client.yaml, session 14's flip file: with config/backflip-42nm.yaml
-# the client's estimator diverged in 3 of 10 noise seeds; docs/backflip.md, "Session 15").
+# settings (config/backflip-42nm.yaml, the file sim_jump's 42 Nm flip uses; docs/backflip.md,
+# "Session 16").
 stop_planner_server
 start_planner_server "$BIN" "$PORT" "$(pwd)/out/plan_cache_42nm_flip.sqlite" \
   out/planner_server_42nm_flip.yaml out/planner_server_42nm_flip.log actuators.yaml \
-  config/backflip-42nm-client.yaml
+  config/backflip-42nm.yaml
 run backflip_42nm
 echo "telemetry and figures in out/ (e2e_*.csv, e2e_*.png; the backflip's knees over the take-off:"
 echo "  out/e2e_backflip_knees.png); service logs out/planner_server*.log"

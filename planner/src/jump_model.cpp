@@ -183,6 +183,12 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   }
   k_.z_land = standingComHeight(k_.robot, q_land);
   k_.c_land = comInBase(k_.q_landing, k_.q_landing);
+  k_.landing_surface =
+      k_.task.target.event == TargetEvent::Touchdown ? k_.task.target.height - k_.z_land : 0.0;
+  for (const detail::PairGeometry* g : {&k_.hind, &k_.front})
+    k_.touchdown_reach =
+        std::max(k_.touchdown_reach,
+                 (g->hfe_b + k_.leg.forward(k_.q_landing) - k_.c_land).norm() + k_.wheel_radius);
   k_.extend_start = k_.task.obstacle && !k_.task.landsOnObstacle()
                         ? k_.settings.wall_extend_start_fraction
                         : k_.settings.extend_start_fraction;

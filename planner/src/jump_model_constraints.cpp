@@ -31,7 +31,8 @@ double boxDistance(const BoxObstacle& box, const Eigen::Vector2d& p) {
 }
 
 // The target's position terms of the target cost (dx and height over their tolerances,
-// squared): the ballistic CoM gives them before the flight attitude is known. The same
+// squared): the ballistic CoM gives them before the flight attitude is known; a touchdown's dx
+// is the smallest over [t3_min, t2 + Tf], where the touchdown lies (touchdownTime). The same
 // arithmetic as targetErrors() and the cost, so it never exceeds the full target cost.
 double targetPositionCost(const JumpModelConstants& M, const Solved& S) {
   const auto& tgt = M.task.target;
@@ -39,8 +40,12 @@ double targetPositionCost(const JumpModelConstants& M, const Solved& S) {
   const double g = st.gravity;
   const bool apex = tgt.event == TargetEvent::Apex;
   const double t_apex = std::max(S.takeoff.vz / g, 0.0);
-  const PlanarState at = ballisticG(S.takeoff, apex ? (S.t2 + t_apex) - S.t2 : S.t3 - S.t2, g);
-  const double e0 = at.x - M.initial.x - tgt.dx;
+  const PlanarState at = ballisticG(S.takeoff, apex ? (S.t2 + t_apex) - S.t2 : S.Tf, g);
+  double e0 = at.x - M.initial.x - tgt.dx;
+  if (!apex) {
+    const double e_min = e0 - S.takeoff.vx * (S.t2 + S.Tf - S.t3_min);
+    e0 = e_min * e0 <= 0.0 ? 0.0 : std::min(std::abs(e0), std::abs(e_min));
+  }
   const double e1 = apex ? at.z - tgt.height : 0.0;
   return std::pow(e0 / st.tolerance_dx_m, 2) + std::pow(e1 / st.tolerance_height_m, 2);
 }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "jump_model_internal.h"
 
@@ -62,6 +63,40 @@ void integrateFlightAttitude(const JumpModelConstants& M, Solved& S) {
     }
     prev_rate = rate;
   }
+}
+
+// The touchdown (docs/planner.md, "Touchdown"): the first instant a wheel's lowest point
+// reaches the landing surface, from the flight table (pitch, the legs' posture and the CoM in
+// the base at its instants, the CoM ballistic): back from the table's end (the CoM at the
+// landing height) to the last instant with every wheel above the surface, and the crossing
+// between it and the next by linear interpolation of the lowest wheel's height (sub-mm over
+// one interval: the gap's curvature is g's and the legs' slow extension). Not before t3_min,
+// and the table's end if no wheel is down by then (legs not yet out).
+double touchdownTime(const JumpModelConstants& M, const Solved& S) {
+  const int n = S.n_flight;
+  const double g = M.settings.gravity, dt = S.Tf / n;
+  auto gap = [&](int k) {
+    const double tau = dt * k;
+    const double z = S.takeoff.z + S.takeoff.vz * tau - 0.5 * g * tau * tau;
+    const Rot2 R(S.flight_pitch[k]);
+    double lowest = std::numeric_limits<double>::infinity();
+    for (int pair = 0; pair < 2; ++pair) {
+      const PairGeometry& geo = pair == 0 ? M.hind : M.front;
+      const Eigen::Vector2d axle = geo.hfe_b + M.leg.forward(S.flight_q[pair][k]) - S.flight_c[k];
+      lowest = std::min(lowest, (R * axle).y());
+    }
+    return z + lowest - M.wheel_radius - M.landing_surface;
+  };
+  double next = gap(n);
+  if (next >= 0.0) return S.t3;
+  for (int k = n - 1; k >= 0; --k) {
+    const double t = S.t2 + dt * k;
+    if (t < S.t3_min) return S.t3_min;
+    const double here = gap(k);
+    if (here >= 0.0) return std::max(t + dt * here / (here - next), S.t3_min);
+    next = here;
+  }
+  return S.t3_min;
 }
 
 }  // namespace
@@ -234,6 +269,8 @@ void solveFlight(const JumpModelConstants& M, Solved& S) {
     for (int j = 0; j < 2; ++j) S.tuck_duration[pair][j] = tuckDuration(M, S, pair, j);
   }
   integrateFlightAttitude(M, S);
+  S.t3 = S.t2 + S.Tf;
+  S.t3 = touchdownTime(M, S);
   S.touchdown = stateAt(M, S, S.t3, M.settings.gravity);
 }
 

@@ -60,7 +60,10 @@ struct JointBrake {
 /// The solved take-off: every polynomial of the trajectory.
 struct Solved {
   bool two_step = false;
-  double t1 = 0, T2 = 0, t2 = 0, Tf = 0, t3 = 0;
+  // t2 + Tf is when the ballistic CoM comes down to the landing height (the legs' flight
+  // schedule is in fractions of Tf); t3 the touchdown, the first wheel on the landing surface
+  // (solveFlight; until then t2 + Tf), never before t3_min (docs/planner.md, "Touchdown").
+  double t1 = 0, T2 = 0, t2 = 0, Tf = 0, t3 = 0, t3_min = 0;
   Poly X1, Z1, P1, VX1, VZ1, W1;  // phase 1, in t
   Poly fHx1, fHz1, fFx1, fFz1;    // pair forces, phase 1
   Poly X2, Z2, P2, VX2, VZ2, W2;  // phase 2, in tau = t - t1

@@ -271,15 +271,23 @@ bool solve(const JumpModelConstants& M, const Eigen::Ref<const Eigen::VectorXd>&
   S.takeoff_posture = false;
   if (!solvePitch(M, S)) return false;
 
-  // Flight: ballistic CoM, constant pitch rate; t3 is when the CoM descends to the landing
-  // height (the touchdown target height, or the landing posture's standing height).
-  const double z_td =
-      M.task.target.event == TargetEvent::Touchdown ? M.task.target.height : M.z_land;
+  // Flight: ballistic CoM; Tf is when the CoM descends to the landing height (standing in the
+  // landing posture on the landing surface), which the legs' schedule is in fractions of. The
+  // touchdown t3, the first wheel on the surface, comes with the flight attitude
+  // (solveFlight), between t3_min (the CoM at the surface plus the landing posture's reach,
+  // the lowest it can be at any pitch) and t2 + Tf.
+  const double z_td = M.landing_surface + M.z_land;
   const double disc = S.takeoff.vz * S.takeoff.vz + 2 * g * (S.takeoff.z - z_td);
   if (!(disc >= 0.0)) return false;
   S.Tf = (S.takeoff.vz + std::sqrt(disc)) / g;
   if (!(S.Tf > 1e-3)) return false;
   S.t3 = S.t2 + S.Tf;
+  const double disc_min =
+      S.takeoff.vz * S.takeoff.vz + 2 * g * (S.takeoff.z - M.landing_surface - M.touchdown_reach);
+  S.t3_min = std::min(
+      S.t2 +
+          (disc_min >= 0.0 ? S.takeoff.vz + std::sqrt(disc_min) : std::max(S.takeoff.vz, 0.0)) / g,
+      S.t3);
   if (complete) {
     if (!solveStanceMomentum(M, S)) return false;
     solveTakeoffPosture(M, S);

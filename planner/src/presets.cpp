@@ -57,18 +57,13 @@ Scenario makePreset(const JumpPlanner& planner, const std::string& name, std::op
     // Beyond the paper: from the forward run-up onto a 0.25 m platform (a kerb, a step); all
     // four wheels land on its top. Its near face is 1.6 m ahead: with the forward preset's
     // 1.2 m no seed finds a plan (the envelope binds at the end of the push), with 1.5 and
-    // 1.6 m 5 of 5 seeds do (plan_jump, session 9). The jump lands just after its apex, with the
-    // CoM falling slowly: the planner's touchdown is the CoM coming down to the target height,
-    // the simulation's the first wheel on the top, and with the body 0.2 rad nose-up the hind
-    // wheels are 0.03-0.05 m lower than level. So the target is nearer the CoM height at that
-    // first contact (standing height + platform + 0.03 m: 5 of 5 seeds feasible, 4 of 5 with
-    // 0.035 m); with the level standing height Simbody's touchdown came 0.05 s and 0.17 m
-    // before the plan's (sim_jump seed 1, verification failed).
+    // 1.6 m 5 of 5 seeds do (plan_jump, session 9). The target height is the standing height
+    // on the top; the touchdown is the first wheel on it (the hind wheels at the 0.2 rad
+    // nose-up landing), as in the simulation (docs/planner.md, "Touchdown").
     sc.initial.v0 = v0.value_or(3.0);
     sc.task.mode = TakeoffMode::Simultaneous;
     sc.task.obstacle = BoxObstacle{1.6, 1.6 + kPlatformLength, kPlatformHeight};
-    sc.task.target = {2.0, z_land + kPlatformHeight + kPlatformHindDrop, 0.2,
-                      TargetEvent::Touchdown};
+    sc.task.target = {2.0, z_land + kPlatformHeight, 0.2, TargetEvent::Touchdown};
   } else {
     throw std::invalid_argument(
         "preset '" + name + "' is not one of forward, forward_hw, vertical, backflip, platform");

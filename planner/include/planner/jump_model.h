@@ -104,6 +104,11 @@ struct JumpModelConstants {
   Eigen::Vector2d c_land = Eigen::Vector2d::Zero();     ///< ... and at the landing posture
   Eigen::Vector2d box_half = Eigen::Vector2d::Zero();   ///< half box size x, z
   Eigen::Vector2d q_landing = Eigen::Vector2d::Zero();  ///< (HFE, KFE) landing posture
+  /// The surface the jump lands on (a touchdown target's height less z_land: the ground, or a
+  /// platform's top; the ground for an apex target) [m], and the farthest any wheel's lowest
+  /// point can reach below the CoM in the landing posture, at any pitch (|axle - c_land| + r)
+  /// [m]: the touchdown (first wheel contact) comes when the CoM is below surface + that.
+  double landing_surface = 0.0, touchdown_reach = 0.0;
   /// Fraction of the flight at which the legs start extending to the landing posture:
   /// settings.wall_extend_start_fraction over a wall, extend_start_fraction otherwise.
   double extend_start = 0.0;

@@ -18,9 +18,6 @@ struct Scenario {
 /// The platform preset's box: height and length along x [m].
 inline constexpr double kPlatformHeight = 0.25;
 inline constexpr double kPlatformLength = 4.0;
-/// How much lower than level the hind wheels are at the platform preset's 0.2 rad nose-up
-/// touchdown [m]: the target CoM height is the standing height + the platform + this.
-inline constexpr double kPlatformHindDrop = 0.03;
 
 /// Names accepted by makePreset: "forward", "forward_hw", "vertical", "backflip", "platform".
 std::vector<std::string> presetNames();

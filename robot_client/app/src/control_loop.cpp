@@ -116,7 +116,12 @@ void ControlLoop::updateContacts() {
     const double clearance = p_WW.z() - robot_.wheelRadius() - ground;
     contact_[leg] = fz > settings_.contact.force_threshold_n &&
                     clearance < settings_.contact.max_wheel_clearance_m;
-    contact_periods_[leg] = contact_[leg] ? contact_periods_[leg] + 1 : 0;
+    // A wheel driven past its traction slips (docs/estimator.md, "Slipping wheels"): its
+    // rolling constraint would pull the estimate along with the slip.
+    const double wheel_tau = sensors_.joints[model::jointIndex(l, model::JointKind::Wheel)].tau;
+    const bool rolling = contact_[leg] && std::abs(wheel_tau) <= settings_.contact.traction_mu *
+                                                                     fz * robot_.wheelRadius();
+    rolling_periods_[leg] = rolling ? rolling_periods_[leg] + 1 : 0;
   }
   wheels_over_platform_ = scenario_.landsOnWall() && over_platform;
 }
@@ -150,11 +155,12 @@ void ControlLoop::estimate() {
   const Mode m = fsm_.mode();
   const bool jumping = m == Mode::Takeoff || m == Mode::Flight || m == Mode::Landing;
   // A wheel that has just touched down slips until its spin matches the ground (impact, a
-  // spin kept from take-off): its rolling constraint joins the filter only once the contact
-  // has lasted settle_s; until then the IMU carries the estimate.
+  // spin kept from take-off), and one driven past its traction slips (a flip's hind wheels
+  // after the front pair lifts): its rolling constraint joins the filter only once it has
+  // rolled within its traction for settle_s; until then the IMU carries the estimate.
   std::array<bool, model::kNumLegs> contact{};
   for (int leg = 0; leg < model::kNumLegs; ++leg)
-    contact[leg] = !jumping || contact_periods_[leg] >= settle_periods_;
+    contact[leg] = !jumping || rolling_periods_[leg] >= settle_periods_;
   estimator_.update(sensors_, contact, backend_.controlPeriod());
   if (!jumping) senseRange();
   const estimation::EstimatedState& s = estimator_.state();

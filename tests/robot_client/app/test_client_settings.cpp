@@ -120,7 +120,7 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   EXPECT_TRUE(s.scenario("vertical").accept_closest_approach);
   EXPECT_FALSE(s.scenario("forward").accept_closest_approach);
   // Landing on top of it needs a CoM height above its top.
-  const std::string low = replace(shippedConfig(), "com_height_m: 0.549", "com_height_m: 0.26");
+  const std::string low = replace(shippedConfig(), "com_height_m: 0.519", "com_height_m: 0.26");
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(low, "x.yaml"); }),
       test::HasSubstr("scenarios.platform.target.com_height_m"));

@@ -46,6 +46,10 @@ struct ContactSettings {
   /// In a jump, a wheel's rolling constraint feeds the estimator only after its contact has
   /// lasted this long (impact and spin-up slip) [s].
   double settle_s = 0.05;
+  /// In a jump, a wheel whose measured torque exceeds traction_mu x its estimated normal force
+  /// x the wheel radius cannot roll without slipping: it counts as out of rolling contact for
+  /// the estimator (and must then roll settle_s again) [-].
+  double traction_mu = 0.7;
 };
 
 /// How the robot client reaches the planning service.

@@ -138,7 +138,8 @@ class ControlLoop {
   Eigen::Vector3d com_offset_B_ = Eigen::Vector3d::Zero();  // CoM in the base frame
   std::array<double, model::kNumLegs> contact_force_{};
   std::array<bool, model::kNumLegs> contact_{};
-  std::array<int, model::kNumLegs> contact_periods_{};  // consecutive periods in contact
+  // Consecutive periods in contact with the wheel's torque within its traction (rolling).
+  std::array<int, model::kNumLegs> rolling_periods_{};
   int settle_periods_ = 50;
   bool pending_request_ = false;
   double takeoff_speed_;
