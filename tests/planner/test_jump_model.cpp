@@ -690,13 +690,16 @@ TEST(JumpPlanner, WarmStartFromTheNeighbouringBinIsFeasibleInAThirdOfAColdSearch
   o.warm_start = ra.u;
   const PlannerResult rb = planner.plan(b.task, b.initial, o);
   EXPECT_TRUE(rb.evaluation.feasible) << rb.summary;
-  // A cold solve at this speed needs ~1,100 evaluations. From the sqp-polished neighbour,
-  // which sits on its back-off margins, it takes 16 generations (512 evaluations; 11 with the
-  // touchdown at the CoM's landing height before session 15, whose dx had no kink at the level
-  // touchdown where the first wheel switches between the pairs); from the Ipopt-polished one,
-  // which its stall rule leaves further inside, 2 (docs/planner.md).
-  EXPECT_LE(rb.de.evaluations, 16 * planner.settings().de.population_size);
-  EXPECT_LT(2 * rb.de.evaluations, planner.plan(b.task, b.initial).de.evaluations);
+  // A cold solve at this speed needs ~1,100-1,500 evaluations. From the sqp-polished
+  // neighbour, which sits on its back-off margins, it takes 2 generations since session 16 (64
+  // evaluations; 16 with session 15's plans, whose first wheel switched between the pairs at
+  // the level touchdown, 11 before them); from the Ipopt-polished one, which its stall rule
+  // leaves further inside, 2 (docs/planner.md).
+  const int cold_evals = planner.plan(b.task, b.initial).de.evaluations;
+  std::printf("warm start: %d evaluations (%d generations), cold %d\n", rb.de.evaluations,
+              rb.de.evaluations / planner.settings().de.population_size, cold_evals);
+  EXPECT_LE(rb.de.evaluations, 12 * planner.settings().de.population_size);
+  EXPECT_LT(3 * rb.de.evaluations, cold_evals);
   // The same seed and warm start give the same plan.
   EXPECT_EQ(planner.plan(b.task, b.initial, o).u, rb.u);
   // Polished with a back-off: every class keeps a margin.
