@@ -241,6 +241,15 @@ Eigen::Vector2d JumpModel::comInBase(const Eigen::Vector2d& q_hind,
   return detail::comOffset(k_, detail::poseOf(q_hind), detail::poseOf(q_front));
 }
 
+double unloadingTailWeight(double t2, double control_dt, double unload_s) {
+  if (!(unload_s > 0.0)) return 0.0;
+  // The executor switches at its first instant k control_dt at or after t2 (PlanExecutor),
+  // but the row there is the push's if it is t2 itself: its flight references start at the
+  // first instant after t2.
+  const double hold = (std::floor((t2 + 1e-12) / control_dt) + 1.0) * control_dt - t2;
+  return hold + 0.5 * unload_s;
+}
+
 double JumpModel::standingComHeight(const model::RobotModel& robot, const Eigen::VectorXd& q) {
   const model::Inertia inertia = robot.calcCompositeInertia(q);
   const auto X = robot.calcLinkPoses(q);

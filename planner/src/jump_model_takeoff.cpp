@@ -3,6 +3,7 @@
 // form, and the pitch from the moments of the contact forces about the CoM.
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <array>
 #include <cmath>
 
@@ -108,21 +109,24 @@ double frontPairHandover(const JumpModelConstants& M, const Sample& smp) {
 }
 
 // The lift-off's unloading tail (docs/planner.md, "The lift-off's unloading tail"): a
-// simultaneous take-off's ground force at t2 falls linearly to zero over
-// settings.takeoff_unload_s while the legs brake, as Simbody's contact does in 4-5 ms. Its
-// impulse, half the force at t2 times that time, goes into the flight's CoM velocity, and half
-// the moment of Eq. S-0 at t2 times it into the flight's angular momentum. The tail is taken
-// as an impulse at t2: what moves the CoM within it (~0.1 mm) and the contacts' travel are
-// left out.
+// simultaneous take-off's ground force at t2 does not vanish at t2. The executor switches to
+// the flight's references (the legs' braking) at its first control instant at or after t2, on
+// its grid of kExecutorControlPeriod from t = 0, so the push's torques, and with them about the
+// force at t2, hold until then; from there the contact unloads, falling about linearly to zero
+// over settings.takeoff_unload_s while the legs brake (Simbody: 3 ms). The impulse, the force
+// at t2 times (hold + half that time), goes into the flight's CoM velocity, and the moment of
+// Eq. S-0 at t2 times the same into its angular momentum. The tail is taken as an impulse at
+// t2: what moves the CoM within it (~0.1 mm) and the contacts' travel are left out. A zero
+// unloading time turns the whole tail off (the flight from the push's state at t2).
 void addUnloadingTail(const JumpModelConstants& M, Solved& S) {
   S.tail_h = 0.0;
-  const double half = 0.5 * M.settings.takeoff_unload_s;
-  if (S.two_step || !(half > 0.0)) return;
+  if (S.two_step || !(M.settings.takeoff_unload_s > 0.0)) return;
   const double t = S.t2;
+  const double w = unloadingTailWeight(t, kExecutorControlPeriod, M.settings.takeoff_unload_s);
   const double fx = S.Fx1(t), fz = S.Fz1(t);
-  S.takeoff.vx += half * fx / M.mass;
-  S.takeoff.vz += half * fz / M.mass;
-  S.tail_h = half * (M.d_hind * fz + (M.d_front - M.d_hind) * S.fFz1(t) + S.Z1(t) * fx);
+  S.takeoff.vx += w * fx / M.mass;
+  S.takeoff.vz += w * fz / M.mass;
+  S.tail_h = w * (M.d_hind * fz + (M.d_front - M.d_hind) * S.fFz1(t) + S.Z1(t) * fx);
 }
 
 // The pitch of the take-off (Eq. S3, centroidal): the whole robot's angular momentum about its
@@ -239,6 +243,17 @@ bool solve(const JumpModelConstants& M, const Eigen::Ref<const Eigen::VectorXd>&
   const double m = M.mass, g = st.gravity;
   S.two_step = M.task.mode == TakeoffMode::TwoStep;
   S.t1 = u[kT1];
+  // With the unloading tail, a simultaneous take-off's push ends half-way between two control
+  // instants (the executors' 1 ms grid from t = 0, kExecutorControlPeriod): the executor runs the
+  // push's references up to the first instant after t2 (the row at t2 itself is the push's), so a
+  // t2 anywhere in a period holds the push's torques for 0-1 periods after it, 0-0.75 N s of
+  // impulse that depends on where t2 falls (docs/planner.md, "The lift-off's unloading tail").
+  // As a sawtooth in t2 it drew the DE's optima to the edge where the hold is longest; half a
+  // period is as far from both edges as a t2 can be (unloadingTailWeight holds for any t2).
+  if (!S.two_step && M.settings.takeoff_unload_s > 0.0) {
+    constexpr double dt = kExecutorControlPeriod;
+    S.t1 = (std::max(0.0, std::floor(S.t1 / dt)) + 0.5) * dt;
+  }
   S.T2 = S.two_step ? u[kT2MinusT1] : 0.0;
   S.t2 = S.t1 + S.T2;
   if (!(S.t1 > 0.0) || !(S.T2 >= 0.0)) return false;

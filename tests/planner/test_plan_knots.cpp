@@ -51,7 +51,9 @@ JumpPlan linearResample(const JumpPlan& coarse, const JumpPlan& fine) {
     const double t = std::min(k * fine.dt, fine.t3);
     const double s = std::clamp(t / coarse.dt, 0.0, n - 1.0);
     const int k0 = std::min(static_cast<int>(s), n - 2);
-    const double a = s - k0;
+    // The last row is at t3, less than a period after the one before it.
+    const double t_next = k0 + 1 == n - 1 ? coarse.t3 : (k0 + 1) * coarse.dt;
+    const double a = std::clamp((t - k0 * coarse.dt) / (t_next - k0 * coarse.dt), 0.0, 1.0);
     out.q.row(k) = (1 - a) * coarse.q.row(k0) + a * coarse.q.row(k0 + 1);
     out.qd.row(k) = (1 - a) * coarse.qd.row(k0) + a * coarse.qd.row(k0 + 1);
     out.tau.row(k) = (1 - a) * coarse.tau.row(k0) + a * coarse.tau.row(k0 + 1);
@@ -92,14 +94,17 @@ TEST_P(KnotsOfAPlannedJump, ReproduceTheDensePlan) {
   for (int k = 1; k < K.size(); ++k) repeated += K.t[k] == K.t[k - 1] ? 1 : 0;
   EXPECT_EQ(repeated, boundaries);
   // Every knot equals the dense plan where the two share a time (the dense plan takes the
-  // ending phase's value at a boundary).
+  // ending phase's value at a boundary), to the take-off postures' fixed-point tolerance (1e-7
+  // m of CoM offset): the knots' samples and the rows converge from other warm starts (equal
+  // to the last bit only while they happened to share them, before session 16's t2 half-way
+  // between two control instants).
   for (int k = 0; k < K.size(); ++k) {
     const double idx = K.t[k] / truth.dt;
     if (std::abs(idx - std::round(idx)) > 1e-9 || (k > 0 && K.t[k] == K.t[k - 1])) continue;
     const int i = static_cast<int>(std::lround(idx));
     for (int j = 0; j < model::kNumJoints; ++j) {
       if (model::isWheel(j)) continue;
-      EXPECT_NEAR(K.q(k, j), truth.q(i, j), 1e-12) << k << " " << j;
+      EXPECT_NEAR(K.q(k, j), truth.q(i, j), 1e-6) << k << " " << j;
     }
   }
 
@@ -122,10 +127,10 @@ TEST_P(KnotsOfAPlannedJump, ReproduceTheDensePlan) {
   EXPECT_LT(e.q, 5e-4);
   EXPECT_LT(e.com, 1e-5);
   // The knots' own refinement tolerances (5e-4 rad, the body's pitch included: the legs'
-  // braking after a lift-off turns it within a few milliseconds), and 0.35 Nm on densify()'s
+  // braking after a lift-off turns it within a few milliseconds), and 0.25 Nm on densify()'s
   // torque curve (the braking's C1 ramps, checked with the finite-difference slopes).
   EXPECT_LT(e.pitch, 5e-4);
-  EXPECT_LT(e.tau, 0.35);  // forward's plan since session 15: 0.34 (before 0.17)
+  EXPECT_LT(e.tau, 0.25);  // 0.14-0.16 (session 16; forward 0.34 with session 15's plan)
   EXPECT_LT(e.qd, 0.2);
   EXPECT_LT(e.com_v, 1e-3);
   // Wheel angles at touchdown: Simpson over the knots against the trapezoid over 0.1 ms (the

@@ -37,6 +37,20 @@ enum DecisionIndex : int {
   kNumDecision = 11,
 };
 
+/// The control period of the executors that run the plans [s]: sim::PlanExecutor at the
+/// simulator's control_period_s and the robot client at its period_s, both 1 kHz. Not the
+/// plan's sample period (output_dt_s), which tests and benches change: a simultaneous
+/// take-off with the unloading tail ends half-way between two of its instants (t = 0 on one).
+inline constexpr double kExecutorControlPeriod = 0.001;
+
+/// The lift-off's unloading tail of a simultaneous take-off that ends at t2 [s]: how long the
+/// ground force at t2 acts on after t2, as an impulse F(t2) times this (docs/planner.md, "The
+/// lift-off's unloading tail"). The executor holds the push's references until its first
+/// control instant after t2 (on the plan's grid of control_dt from t = 0; the row at t2 itself
+/// is the push's), and the contact then unloads linearly over unload_s: the hold plus
+/// unload_s / 2. Zero when unload_s is zero (no tail).
+double unloadingTailWeight(double t2, double control_dt, double unload_s);
+
 /// Worst margin of one constraint class over a trajectory.
 struct ClassMargin {
   double worst = std::numeric_limits<double>::infinity();  ///< smallest margin (unit: unitOf)

@@ -90,14 +90,16 @@ struct PlannerSettings {
   /// plans are consistent but not closer to Simbody until the lift-off is modelled.
   bool stance_momentum = false;
   /// The lift-off's unloading tail [s]: a simultaneous take-off's ground force at t2 is not
-  /// zero (~150 N per wheel on vertical), and the wheels keep pushing while the legs brake
-  /// and the contact unloads. The model takes the force as falling linearly to zero over this
-  /// time after t2 and adds its impulse (force and moment at t2 times half of it) to the
-  /// flight's CoM velocity and angular momentum (docs/planner.md, "The lift-off's unloading
-  /// tail"). Simbody's wheels leave 4.5-5.5 ms after t2, with the impulse of a linear fall over
-  /// 3.6-4.3 ms (session 14, seed 7); 0: the flight starts from the push's state at t2 (the
-  /// model until session 13). A two-step take-off is not affected.
-  double takeoff_unload_s = 0.004;
+  /// zero (~150 N per wheel on vertical), and the wheels keep pushing after t2: the executor
+  /// holds the push's references until its first control instant after t2 (both executors run
+  /// at 1 kHz, kExecutorControlPeriod in jump_model.h), and from there
+  /// the contact unloads while the legs brake. The model takes the force as holding until that
+  /// instant and then falling linearly to zero over this time, and adds the impulse to the
+  /// flight's CoM velocity and angular momentum (unloadingTailWeight; docs/planner.md, "The
+  /// lift-off's unloading tail"). Simbody's fall, the hold taken out: 2.4-3.4 ms, median 3.0
+  /// (session 16, 30 cases); 0: no tail at all, the flight starts from the push's state at t2
+  /// (the model until session 13). A two-step take-off is not affected.
+  double takeoff_unload_s = 0.003;
 
   // --- postures (sagittal angles of every leg; HAA held at 0)
   double stand_hfe_rad = 1.0;  ///< take-off start posture used by the presets
