@@ -66,7 +66,7 @@ json benchCold(const std::filesystem::path& dir, int plans, std::chrono::millise
   wj::client::ClientOptions o;
   o.target = server.target();
   wj::client::PlannerClient c(o);
-  std::vector<double> ms, verify_ms, de_ms;
+  std::vector<double> ms, verify_ms, de_ms, polish_ms, server_ms;
   int ok = 0, feasible = 0, passed = 0, verified = 0;
   std::map<std::string, int> errors;
   for (int i = 0; i < plans; ++i) {
@@ -86,6 +86,8 @@ json benchCold(const std::filesystem::path& dir, int plans, std::chrono::millise
     passed += status == v1::VERIFICATION_STATUS_PASSED ? 1 : 0;
     verify_ms.push_back(r.response.stats().verify_ms());
     de_ms.push_back(r.response.stats().de_ms());
+    polish_ms.push_back(r.response.stats().polish_ms());
+    server_ms.push_back(r.response.stats().total_ms());
   }
   json j = latencyJson(ms);
   j["deadline_ms"] = deadline.count();
@@ -97,6 +99,13 @@ json benchCold(const std::filesystem::path& dir, int plans, std::chrono::millise
   j["verification_passed"] = passed;
   j["de_p50_ms"] = percentile(de_ms, 0.5);
   j["verify_p50_ms"] = percentile(verify_ms, 0.5);
+  j["polish_p50_ms"] = percentile(polish_ms, 0.5);
+  j["server_total_p50_ms"] = percentile(server_ms, 0.5);
+  j["per_request_ms"] = {{"total", ms},
+                         {"de", de_ms},
+                         {"polish", polish_ms},
+                         {"verify", verify_ms},
+                         {"server_total", server_ms}};
   j["errors"] = errors;
   j["target_p50_ms"] = 150.0;
   j["meets_p50_target"] = percentile(ms, 0.5) <= 150.0 && ok == plans;
