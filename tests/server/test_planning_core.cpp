@@ -630,6 +630,16 @@ TEST(MissPipeline, VerifiesTheTopKAndReturnsTheBestThatPasses) {
   EXPECT_EQ(second.solution->verification.status, VerificationStatus::Passed);
   EXPECT_EQ(second.solution->verification.returned_candidate_rank,
             second.answer->verification.returned_candidate_rank);
+  // A lower rank's plan is built on its verify worker: the answer is that rank's plan, the
+  // one its verdict is of (the compact solution's u rebuilds it).
+  const PlanRequest asked = request(0.5);
+  const planner::JumpModel model(f.planner.robot(), f.planner.settings(), asked.task,
+                                 asked.initial);
+  const Eigen::Map<const Eigen::VectorXd> u(second.solution->u.data(), planner::kNumDecision);
+  const planner::JumpPlan rebuilt = model.buildPlan(u);
+  EXPECT_EQ(second.answer->plan.decision, rebuilt.decision);
+  EXPECT_EQ(second.answer->plan.q, rebuilt.q);
+  EXPECT_NE(second.answer->plan.decision, first.answer->plan.decision);
   // The second miss verified at least ranks 0 to the chosen one, at most all three.
   EXPECT_GE(v->calls.load() - first_calls,
             static_cast<int>(second.answer->verification.returned_candidate_rank) + 1);
