@@ -1,9 +1,11 @@
 #include "planner_client/compact_knots.h"
 
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <string_view>
 #include <vector>
 
 namespace wj::client {
@@ -68,33 +70,44 @@ void compactJoints(const Joints& in, v1::JointColumns* out) {
     for (const int j : sent) *p++ = in.at(k, j);
 }
 
-std::string expandJoints(const v1::JointColumns& in, int knots, const std::string& field,
+std::string expandJoints(const v1::JointColumns& in, int knots, std::string_view field,
                          google::protobuf::RepeatedField<float>* out) {
+  const auto error = [field](const std::string& what) { return std::string(field) + what; };
   if (in.source_size() != kJoints || in.constant_size() != kJoints)
-    return field + ".source and .constant must have 16 entries, got " +
-           std::to_string(in.source_size()) + " and " + std::to_string(in.constant_size());
+    return error(".source and .constant must have 16 entries, got " +
+                 std::to_string(in.source_size()) + " and " + std::to_string(in.constant_size()));
   if (in.columns_size() % knots != 0)
-    return field + ".columns must hold K x C values for K = " + std::to_string(knots) +
-           " knots, got " + std::to_string(in.columns_size());
+    return error(".columns must hold K x C values for K = " + std::to_string(knots) +
+                 " knots, got " + std::to_string(in.columns_size()));
   const int columns = in.columns_size() / knots;
+  // Per joint, where its values are read (a sent column with a stride of `columns`, or its
+  // constant with a stride of 0) and the sign bit applied to them: the loop over the K x 16
+  // values has no branch (the robot client expands every plan it receives; docs/service.md,
+  // "Hits at the floor"). Flipping the sign bit is what negation does, bit for bit.
+  std::array<const float*, kJoints> from{};
+  std::array<int, kJoints> stride{};
+  std::array<std::uint32_t, kJoints> sign{};
   for (int j = 0; j < kJoints; ++j) {
     const int s = in.source(j);
     if (s > columns || s < -columns)
-      return field + ".source[" + std::to_string(j) + "] must be in [-" + std::to_string(columns) +
-             ", " + std::to_string(columns) + "], got " + std::to_string(s);
+      return error(".source[" + std::to_string(j) + "] must be in [-" + std::to_string(columns) +
+                   ", " + std::to_string(columns) + "], got " + std::to_string(s));
     if (!std::isfinite(in.constant(j)))
-      return field + ".constant[" + std::to_string(j) + "] must be finite";
+      return error(".constant[" + std::to_string(j) + "] must be finite");
+    const auto u = static_cast<std::size_t>(j);
+    if (s == 0) {
+      from[u] = in.constant().data() + j;
+    } else {
+      from[u] = in.columns().data() + (std::abs(s) - 1);
+      stride[u] = columns;
+      sign[u] = s < 0 ? 0x80000000u : 0u;
+    }
   }
   out->Resize(knots * kJoints, 0.0f);
   float* p = out->mutable_data();
-  const float* values = in.columns().data();
-  const std::int32_t* source = in.source().data();
-  const float* constant = in.constant().data();
-  for (int k = 0; k < knots; ++k, values += columns)
-    for (int j = 0; j < kJoints; ++j) {
-      const int s = source[j];
-      *p++ = s == 0 ? constant[j] : s > 0 ? values[s - 1] : -values[-s - 1];
-    }
+  for (int k = 0; k < knots; ++k)
+    for (std::size_t j = 0; j < kJoints; ++j)
+      *p++ = std::bit_cast<float>(std::bit_cast<std::uint32_t>(from[j][k * stride[j]]) ^ sign[j]);
   return "";
 }
 
