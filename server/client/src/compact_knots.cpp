@@ -80,13 +80,14 @@ std::string expandJoints(const v1::JointColumns& in, int knots, std::string_view
     return error(".columns must hold K x C values for K = " + std::to_string(knots) +
                  " knots, got " + std::to_string(in.columns_size()));
   const int columns = in.columns_size() / knots;
-  // Per joint, where its values are read (a sent column with a stride of `columns`, or its
-  // constant with a stride of 0) and the sign bit applied to them: the loop over the K x 16
+  if (columns > kJoints)
+    return error(".columns must hold at most 16 columns per knot, got " + std::to_string(columns));
+  // Each knot's row of the 16 joints is gathered from a row of its sent columns, their
+  // negations and the constants, at an index per joint set once: the loop over the K x 16
   // values has no branch (the robot client expands every plan it receives; docs/service.md,
-  // "Hits at the floor"). Flipping the sign bit is what negation does, bit for bit.
-  std::array<const float*, kJoints> from{};
-  std::array<int, kJoints> stride{};
-  std::array<std::uint32_t, kJoints> sign{};
+  // "Hits at the floor"). Negation flips the sign bit only, so the values come back bit for bit.
+  std::array<float, 3 * kJoints> row{};  // sent columns, their negations, constants
+  std::array<int, kJoints> at{};
   for (int j = 0; j < kJoints; ++j) {
     const int s = in.source(j);
     if (s > columns || s < -columns)
@@ -95,19 +96,19 @@ std::string expandJoints(const v1::JointColumns& in, int knots, std::string_view
     if (!std::isfinite(in.constant(j)))
       return error(".constant[" + std::to_string(j) + "] must be finite");
     const auto u = static_cast<std::size_t>(j);
-    if (s == 0) {
-      from[u] = in.constant().data() + j;
-    } else {
-      from[u] = in.columns().data() + (std::abs(s) - 1);
-      stride[u] = columns;
-      sign[u] = s < 0 ? 0x80000000u : 0u;
-    }
+    at[u] = s == 0 ? 2 * kJoints + j : s > 0 ? s - 1 : kJoints - s - 1;
+    row[static_cast<std::size_t>(2 * kJoints + j)] = in.constant(j);
   }
   out->Resize(knots * kJoints, 0.0f);
   float* p = out->mutable_data();
-  for (int k = 0; k < knots; ++k)
-    for (std::size_t j = 0; j < kJoints; ++j)
-      *p++ = std::bit_cast<float>(std::bit_cast<std::uint32_t>(from[j][k * stride[j]]) ^ sign[j]);
+  const float* values = in.columns().data();
+  for (int k = 0; k < knots; ++k, values += columns, p += kJoints) {
+    for (int c = 0; c < columns; ++c) {
+      row[static_cast<std::size_t>(c)] = values[c];
+      row[static_cast<std::size_t>(kJoints + c)] = -values[c];
+    }
+    for (std::size_t j = 0; j < kJoints; ++j) p[j] = row[static_cast<std::size_t>(at[j])];
+  }
   return "";
 }
 
