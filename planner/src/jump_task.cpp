@@ -3,17 +3,26 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 namespace wj::planner {
 
 namespace {
 
-void requireRange(const std::string& field, double value, double lo, double hi) {
-  if (!std::isfinite(value) || value < lo || value > hi) {
-    std::ostringstream ss;
-    ss << field << " must be finite and in [" << lo << ", " << hi << "], got " << value;
-    throw std::invalid_argument(ss.str());
-  }
+bool inRange(double value, double lo, double hi) {
+  return std::isfinite(value) && value >= lo && value <= hi;
+}
+
+[[noreturn]] void outOfRange(std::string_view field, double value, double lo, double hi) {
+  std::ostringstream ss;
+  ss << field << " must be finite and in [" << lo << ", " << hi << "], got " << value;
+  throw std::invalid_argument(ss.str());
+}
+
+// A string_view, so that a valid value builds no string (validated on every request, hits
+// included).
+void requireRange(std::string_view field, double value, double lo, double hi) {
+  if (!inRange(value, lo, hi)) outOfRange(field, value, lo, hi);
 }
 
 }  // namespace
@@ -52,7 +61,8 @@ void InitialState::validate(const model::RobotModel& robot) const {
         throw std::invalid_argument("initial.q[" + j.name + "] must be finite");
       continue;
     }
-    requireRange("initial.q[" + j.name + "]", q[i], j.lower_rad, j.upper_rad);
+    if (!inRange(q[i], j.lower_rad, j.upper_rad))
+      outOfRange("initial.q[" + j.name + "]", q[i], j.lower_rad, j.upper_rad);
   }
 }
 

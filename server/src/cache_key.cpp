@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cassert>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -11,18 +12,31 @@ namespace wj::server {
 
 namespace {
 
-// Little-endian writer and reader of fixed-width integers and doubles.
+// Little-endian writers of fixed-width integers and doubles: into a growing string, or into a
+// fixed array (the cache key, hashed on every lookup: no allocation).
+template <typename T>
+void putLittleEndian(char* out, T value) {
+  static_assert(std::is_integral_v<T> || std::is_enum_v<T>);
+  using U = std::make_unsigned_t<std::conditional_t<std::is_enum_v<T>, int, T>>;
+  auto u = static_cast<U>(value);
+  for (std::size_t i = 0; i < sizeof(U); ++i) {
+    out[i] = static_cast<char>(u & 0xffu);
+    u = static_cast<U>(u >> 8);
+  }
+}
+
+template <typename T>
+constexpr std::size_t encodedSize() {
+  return sizeof(std::make_unsigned_t<std::conditional_t<std::is_enum_v<T>, int, T>>);
+}
+
 class ByteWriter {
  public:
   template <typename T>
   void put(T value) {
-    static_assert(std::is_integral_v<T> || std::is_enum_v<T>);
-    using U = std::make_unsigned_t<std::conditional_t<std::is_enum_v<T>, int, T>>;
-    auto u = static_cast<U>(value);
-    for (std::size_t i = 0; i < sizeof(U); ++i) {
-      out_.push_back(static_cast<char>(u & 0xffu));
-      u = static_cast<U>(u >> 8);
-    }
+    char b[encodedSize<T>()];
+    putLittleEndian(b, value);
+    out_.append(b, sizeof b);
   }
   void putDouble(double v) { put(std::bit_cast<std::uint64_t>(v == 0.0 ? 0.0 : v)); }
   void putBool(bool b) { put(static_cast<std::uint8_t>(b ? 1 : 0)); }
@@ -30,6 +44,21 @@ class ByteWriter {
 
  private:
   std::string out_;
+};
+
+class KeyWriter {
+ public:
+  explicit KeyWriter(CacheKey::Bytes& out) : out_(out) {}
+  template <typename T>
+  void put(T value) {
+    putLittleEndian(out_.data() + at_, value);
+    at_ += encodedSize<T>();
+  }
+  std::size_t written() const { return at_; }
+
+ private:
+  CacheKey::Bytes& out_;
+  std::size_t at_ = 0;
 };
 
 class ByteReader {
@@ -67,8 +96,9 @@ std::uint64_t fnv1a64(std::string_view bytes, std::uint64_t h) {
   return h;
 }
 
-std::string CacheKey::bytes() const {
-  ByteWriter w;
+CacheKey::Bytes CacheKey::byteArray() const {
+  Bytes out;
+  KeyWriter w(out);
   w.put(v0_bin);
   w.put(target_dx_bin);
   w.put(target_height_bin);
@@ -85,7 +115,13 @@ std::string CacheKey::bytes() const {
   w.put(seed);
   w.put(model_hash);
   w.put(settings_hash);
-  return w.bytes();
+  assert(w.written() == kBytes);
+  return out;
+}
+
+std::string CacheKey::bytes() const {
+  const Bytes b = byteArray();
+  return std::string(b.data(), b.size());
 }
 
 std::optional<CacheKey> CacheKey::fromBytes(std::string_view b) {
@@ -129,7 +165,8 @@ CacheKey CacheKey::family() const {
 }
 
 std::uint64_t CacheKey::hash() const {
-  return fnv1a64(bytes());
+  const Bytes b = byteArray();
+  return fnv1a64(std::string_view(b.data(), b.size()));
 }
 
 namespace {

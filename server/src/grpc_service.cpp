@@ -267,12 +267,14 @@ bool JumpPlannerService::answerHot(const PlanRequest& r, grpc::ByteBuffer* respo
   const CacheKey key = core_.keyOf(r);
   if (!core_.findHit(r, key, &slot->generation)) return false;
   constexpr char kFormatTag[] = {'D', 'K', 'C'};  // per TrajectoryFormat
-  slot->key = key.bytes() + kFormatTag[static_cast<int>(r.trajectory)];
+  const CacheKey::Bytes bytes = key.byteArray();
+  slot->key.reserve(bytes.size() + 1);  // one allocation for the 88 bytes
+  slot->key.assign(bytes.data(), bytes.size());
+  slot->key += kFormatTag[static_cast<int>(r.trajectory)];
   const auto ready = hot_.find(slot->key, slot->generation);
   if (!ready) return false;
   const double ms = std::chrono::duration<double, std::milli>(Clock::now() - received).count();
-  const std::string suffix = readySuffix(r.request_id, ms);
-  grpc::Slice parts[2] = {*ready, grpc::Slice(suffix)};
+  grpc::Slice parts[2] = {*ready, readySuffix(r.request_id, ms)};
   grpc::ByteBuffer answer(parts, 2);
   response_bytes->Swap(&answer);
   core_.recordHotHit(ms);

@@ -455,7 +455,9 @@ TEST(HotResponses, ReadyBytesAndTheCallersSuffixParseAsTheCallersResponse) {
     EXPECT_EQ(first.request_id(), "");  // the per-call fields are not in the ready bytes
     EXPECT_EQ(first.stats().total_ms(), 0.0);
     wheeljump::planner::v1::PlanJumpResponse parsed;
-    ASSERT_TRUE(parsed.ParseFromString(ready + readySuffix(id, 0.0625)));
+    const grpc::Slice suffix = readySuffix(id, 0.0625);
+    ASSERT_TRUE(parsed.ParseFromString(
+        ready + std::string(reinterpret_cast<const char*>(suffix.begin()), suffix.size())));
     EXPECT_EQ(parsed.SerializeAsString(), expected.SerializeAsString()) << id;
     EXPECT_EQ(parsed.request_id(), id);
     EXPECT_TRUE(parsed.ready_response());

@@ -127,6 +127,12 @@ TEST(CompactKnots, MalformedMessagesNameTheField) {
               c.mutable_velocities_rad_s()->mutable_columns()->RemoveLast();
             }).find("compact_knots.velocities_rad_s.columns must hold K x C values for K = 5"),
             std::string::npos);
+  // More columns than joints is no compaction (and would overrun the expansion's row).
+  EXPECT_NE(
+      problem([](v1::CompactKnots& c) {
+        c.mutable_torques_nm()->mutable_columns()->Resize(5 * 17, 0.5f);
+      }).find("compact_knots.torques_nm.columns must hold at most 16 columns per knot, got 17"),
+      std::string::npos);
 }
 
 }  // namespace

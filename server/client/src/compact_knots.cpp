@@ -1,9 +1,11 @@
 #include "planner_client/compact_knots.h"
 
+#include <array>
 #include <bit>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <string_view>
 #include <vector>
 
 namespace wj::client {
@@ -68,33 +70,45 @@ void compactJoints(const Joints& in, v1::JointColumns* out) {
     for (const int j : sent) *p++ = in.at(k, j);
 }
 
-std::string expandJoints(const v1::JointColumns& in, int knots, const std::string& field,
+std::string expandJoints(const v1::JointColumns& in, int knots, std::string_view field,
                          google::protobuf::RepeatedField<float>* out) {
+  const auto error = [field](const std::string& what) { return std::string(field) + what; };
   if (in.source_size() != kJoints || in.constant_size() != kJoints)
-    return field + ".source and .constant must have 16 entries, got " +
-           std::to_string(in.source_size()) + " and " + std::to_string(in.constant_size());
+    return error(".source and .constant must have 16 entries, got " +
+                 std::to_string(in.source_size()) + " and " + std::to_string(in.constant_size()));
   if (in.columns_size() % knots != 0)
-    return field + ".columns must hold K x C values for K = " + std::to_string(knots) +
-           " knots, got " + std::to_string(in.columns_size());
+    return error(".columns must hold K x C values for K = " + std::to_string(knots) +
+                 " knots, got " + std::to_string(in.columns_size()));
   const int columns = in.columns_size() / knots;
+  if (columns > kJoints)
+    return error(".columns must hold at most 16 columns per knot, got " + std::to_string(columns));
+  // Each knot's row of the 16 joints is gathered from a row of its sent columns, their
+  // negations and the constants, at an index per joint set once: the loop over the K x 16
+  // values has no branch (the robot client expands every plan it receives; docs/service.md,
+  // "Hits at the floor"). Negation flips the sign bit only, so the values come back bit for bit.
+  std::array<float, 3 * kJoints> row{};  // sent columns, their negations, constants
+  std::array<int, kJoints> at{};
   for (int j = 0; j < kJoints; ++j) {
     const int s = in.source(j);
     if (s > columns || s < -columns)
-      return field + ".source[" + std::to_string(j) + "] must be in [-" + std::to_string(columns) +
-             ", " + std::to_string(columns) + "], got " + std::to_string(s);
+      return error(".source[" + std::to_string(j) + "] must be in [-" + std::to_string(columns) +
+                   ", " + std::to_string(columns) + "], got " + std::to_string(s));
     if (!std::isfinite(in.constant(j)))
-      return field + ".constant[" + std::to_string(j) + "] must be finite";
+      return error(".constant[" + std::to_string(j) + "] must be finite");
+    const auto u = static_cast<std::size_t>(j);
+    at[u] = s == 0 ? 2 * kJoints + j : s > 0 ? s - 1 : kJoints - s - 1;
+    row[static_cast<std::size_t>(2 * kJoints + j)] = in.constant(j);
   }
   out->Resize(knots * kJoints, 0.0f);
   float* p = out->mutable_data();
   const float* values = in.columns().data();
-  const std::int32_t* source = in.source().data();
-  const float* constant = in.constant().data();
-  for (int k = 0; k < knots; ++k, values += columns)
-    for (int j = 0; j < kJoints; ++j) {
-      const int s = source[j];
-      *p++ = s == 0 ? constant[j] : s > 0 ? values[s - 1] : -values[-s - 1];
+  for (int k = 0; k < knots; ++k, values += columns, p += kJoints) {
+    for (int c = 0; c < columns; ++c) {
+      row[static_cast<std::size_t>(c)] = values[c];
+      row[static_cast<std::size_t>(kJoints + c)] = -values[c];
     }
+    for (std::size_t j = 0; j < kJoints; ++j) p[j] = row[static_cast<std::size_t>(at[j])];
+  }
   return "";
 }
 

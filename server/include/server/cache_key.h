@@ -36,8 +36,13 @@ struct CacheKey {
 
   bool operator==(const CacheKey&) const = default;
 
+  static constexpr std::size_t kBytes = 4 * 4 + 3 + 4 * 5 + 2 * kKeyPostureJoints + 8 * 3;
+  using Bytes = std::array<char, kBytes>;
+
   /// Canonical little-endian bytes (kBytes long); the SQLite primary key.
   std::string bytes() const;
+  /// The same bytes without allocating (hashed on every lookup of a hit).
+  Bytes byteArray() const;
   /// Lower-case hex of bytes().
   std::string hex() const;
   /// Parses bytes(); nullopt if `b` is not kBytes long.
@@ -46,8 +51,6 @@ struct CacheKey {
   CacheKey family() const;
   /// 64-bit hash of bytes() (for hash maps).
   std::uint64_t hash() const;
-
-  static constexpr std::size_t kBytes = 4 * 4 + 3 + 4 * 5 + 2 * kKeyPostureJoints + 8 * 3;
 };
 
 struct CacheKeyHash {

@@ -32,8 +32,8 @@ namespace wj::server {
 /// what the hot tier keeps. `response` is changed (those two fields are cleared).
 std::string readyBytes(wheeljump::planner::v1::PlanJumpResponse& response);
 /// The serialized per-call fields of a hot answer: parsed after readyBytes(r) (concatenated),
-/// they give r with this request_id and stats.total_ms.
-std::string readySuffix(const std::string& request_id, double total_ms);
+/// they give r with this request_id and stats.total_ms (and ready_response set).
+grpc::Slice readySuffix(std::string_view request_id, double total_ms);
 
 class HotResponses {
  public:
