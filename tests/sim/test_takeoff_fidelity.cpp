@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -164,6 +165,20 @@ bool stanceMomentumFromEnv() {
   return v && std::string(v) == "1";
 }
 
+/// WJ_FIDELITY_SPEED_LOOP=1: the take-off's wheels with session 16's law (the plan's torque
+/// plus takeoff_wheel_kd on the whole error to the plan's no-slip rate), for the before/after
+/// comparison of the bench grid.
+VerifierSettings verifierSettings() {
+  VerifierSettings s;
+  const char* v = std::getenv("WJ_FIDELITY_SPEED_LOOP");
+  if (v && std::string(v) == "1") {
+    s.executor.takeoff_wheel_slip_band_m_s = 0.0;
+    s.executor.tyre_slip_stiffness_n_s_m = std::numeric_limits<double>::max();
+    s.executor.tyre_rolling_radius_ratio = 1.0;
+  }
+  return s;
+}
+
 Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_t seed = 7,
                  bool stance_momentum = false) {
   const auto robot = model::RobotModel::loadDefault();
@@ -174,7 +189,7 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
   opts.threads = 2;
   const planner::PlannerResult r = planner.plan(sc.task, sc.initial, opts);
   EXPECT_TRUE(r.evaluation.valid) << task;
-  const Verifier verifier(robot, VerifierSettings{});
+  const Verifier verifier(robot, verifierSettings());
   TelemetryRecorder recorder;
   const VerificationReport v =
       verifier.verify(r.plan, scenarioForTask(sc.task), recorder.callback());

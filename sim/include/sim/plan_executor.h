@@ -30,7 +30,26 @@ std::string_view toString(JumpPhase phase);
 struct ExecutorSettings {
   double takeoff_kp = 150.0;  ///< leg stiffness tracking plan.q in take-off [Nm/rad]
   double takeoff_kd = 3.0;    ///< leg damping tracking plan.qd in take-off [Nm s/rad]
-  double wheel_kd = 1.0;      ///< wheel speed gain in take-off and landing [Nm s/rad]
+  double wheel_kd = 1.0;      ///< wheel speed gain in the landing [Nm s/rad]
+  /// The take-off's wheel law (issue 22, docs/planner.md "The wheels' traction in the push"):
+  /// each wheel on the ground gets the plan's torque, and its speed reference is the plan's
+  /// rolling rate corrected by the tyre (the rolling radius and the slip its planned traction
+  /// needs, below). A speed error within takeoff_wheel_slip_band_m_s of that reference gets no
+  /// feedback (the tyre's own scatter of slip, the legs' tracking errors); beyond it this gain
+  /// acts on the excess, which bounds a wheel that loses traction and spins up (or locks) to
+  /// the band plus |torque| / gain. A gain on the whole error (session 16: 1 Nm s/rad against
+  /// the plan's no-slip rate) took 0.2-2 Nm off the planned torques [Nm s/rad].
+  double takeoff_wheel_kd = 1.0;
+  /// Ground-speed error (wheel rate x radius) left to the plan's torque in the take-off [m/s].
+  double takeoff_wheel_slip_band_m_s = 0.03;
+  /// The tyre's longitudinal slip stiffness per wheel: it carries a traction F while its
+  /// contact slips at F / stiffness [N s/m]. The take-off's reference adds the slip of the
+  /// plan's wheel torque. 370 is what Simbody's wheels show in the push (docs/planner.md).
+  double tyre_slip_stiffness_n_s_m = 370.0;
+  /// The loaded tyre's rolling radius over the wheel radius: a wheel on the ground turns
+  /// 1 / ratio times faster than a rigid one of the nominal radius (the contact's
+  /// deflection). The take-off's reference scales the plan's rolling rate by it.
+  double tyre_rolling_radius_ratio = 0.99;
   /// Wheel speed gain in flight [Nm s/rad]. 0 lets the wheels spin freely: they keep the
   /// spin they rolled with at take-off (ground speed / r, which flight conserves) and trade no
   /// angular momentum with the body; a gain towards a joint speed would tilt the body.
@@ -160,6 +179,10 @@ class PlanExecutor {
   // Keeps the lifted front pair's HFE and KFE references lifted_pair_margin_rad inside their
   // range while the robot stands on its hind wheels.
   void keepLiftedPairInRange(model::JointCommands& out) const;
+  // The take-off's wheel law on the sampled references (ExecutorSettings::takeoff_wheel_kd):
+  // the speed reference corrected by the tyre, a band around it without feedback.
+  void applyTakeoffWheelLaw(double t, const model::SensorData& sensors,
+                            model::JointCommands& out) const;
   // Adds the body pitch feedback of the hind-only push to the hind wheels' torques.
   void addHindPitchFeedback(double t, const Eigen::Vector3d& omega_W,
                             model::JointCommands& out) const;
