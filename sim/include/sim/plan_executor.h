@@ -30,7 +30,9 @@ std::string_view toString(JumpPhase phase);
 struct ExecutorSettings {
   double takeoff_kp = 150.0;  ///< leg stiffness tracking plan.q in take-off [Nm/rad]
   double takeoff_kd = 3.0;    ///< leg damping tracking plan.qd in take-off [Nm s/rad]
-  double wheel_kd = 1.0;      ///< wheel speed gain in the landing [Nm s/rad]
+  /// Wheel speed gain in the landing, and in a two-step plan's take-off on the whole error to
+  /// the plan's rate [Nm s/rad].
+  double wheel_kd = 1.0;
   /// The take-off's wheel law (issue 22, docs/planner.md "The wheels' traction in the push"):
   /// each wheel on the ground gets the plan's torque, and its speed reference is the plan's
   /// rolling rate corrected by the tyre (the rolling radius and the slip its planned traction
@@ -38,7 +40,10 @@ struct ExecutorSettings {
   /// feedback (the tyre's own scatter of slip, the legs' tracking errors); beyond it this gain
   /// acts on the excess, which bounds a wheel that loses traction and spins up (or locks) to
   /// the band plus |torque| / gain. A gain on the whole error (session 16: 1 Nm s/rad against
-  /// the plan's no-slip rate) took 0.2-2 Nm off the planned torques [Nm s/rad].
+  /// the plan's no-slip rate) took 0.2-2 Nm off the planned torques [Nm s/rad]. A two-step
+  /// plan (the backflip) keeps that loop with wheel_kd: on its hind wheels alone the wheel
+  /// torques close the body's pitch (hind_pitch_kp), and with this law Simbody's flips
+  /// rotated 0.1-0.2 rad less by their touchdown.
   double takeoff_wheel_kd = 1.0;
   /// Ground-speed error (wheel rate x radius) left to the plan's torque in the take-off [m/s].
   double takeoff_wheel_slip_band_m_s = 0.03;
@@ -205,6 +210,7 @@ class PlanExecutor {
   bool hind_only_ = false;  // two-step plan: the front legs carry no torque in [t1, t2)
   // The leg gains and landing deceleration this plan runs with (a two-step plan's own).
   double takeoff_kp_ = 0.0, takeoff_kd_ = 0.0, flight_kp_ = 0.0, flight_kd_ = 0.0;
+  double takeoff_wheel_kd_ = 0.0;
   double landing_decel_ = 0.0;
   bool have_pitch_ = false;  // pitch0_ and pitch_ measured
   double pitch0_ = 0.0;      // body pitch at t = 0 (the plan's pitch is relative to it)
