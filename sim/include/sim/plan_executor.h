@@ -31,7 +31,8 @@ struct ExecutorSettings {
   double takeoff_kp = 150.0;  ///< leg stiffness tracking plan.q in take-off [Nm/rad]
   double takeoff_kd = 3.0;    ///< leg damping tracking plan.qd in take-off [Nm s/rad]
   /// Wheel speed gain in the landing, and in a two-step plan's take-off on the whole error to
-  /// the plan's rate [Nm s/rad].
+  /// the plan's rate (the robot client also holds its wheels with it before its NMPC's first
+  /// policy) [Nm s/rad].
   double wheel_kd = 1.0;
   /// The take-off's wheel law (issue 22, docs/planner.md "The wheels' traction in the push"):
   /// each wheel on the ground gets the plan's torque, and its speed reference is the plan's
