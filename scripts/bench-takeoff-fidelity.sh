@@ -8,6 +8,8 @@
 # plus the unloading tail's), touchdown pitch <= 0.03 rad, apex <= 1 cm, touchdown dx <= 3 cm.
 # Usage: scripts/bench-takeoff-fidelity.sh [build dir] [seeds] [stance momentum: 0 | 1]
 #        [unloading tail: 1 | 0 (the planner's takeoff_unload_s = 0)]
+# WJ_FIDELITY_SPEED_LOOP=1: the take-off's wheels with session 16's law (the speed gain on the
+# whole error to the plan's no-slip rate; ExecutorSettings::takeoff_wheel_kd), for a before.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}

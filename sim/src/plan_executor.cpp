@@ -39,6 +39,12 @@ void ExecutorSettings::validate() const {
   requireNonNegative(takeoff_kd, "takeoff_kd");
   requireNonNegative(wheel_kd, "wheel_kd");
   requireNonNegative(flight_wheel_kd, "flight_wheel_kd");
+  requireNonNegative(takeoff_wheel_kd, "takeoff_wheel_kd");
+  requireNonNegative(takeoff_wheel_slip_band_m_s, "takeoff_wheel_slip_band_m_s");
+  requirePositive(tyre_slip_stiffness_n_s_m, "tyre_slip_stiffness_n_s_m");
+  if (!(tyre_rolling_radius_ratio >= 0.8 && tyre_rolling_radius_ratio <= 1.2))
+    throw std::invalid_argument(
+        "executor settings: tyre_rolling_radius_ratio must be in [0.8, 1.2]");
   requireNonNegative(flight_kp, "flight_kp");
   requireNonNegative(flight_kd, "flight_kd");
   requirePositive(flight_blend_s, "flight_blend_s");
@@ -127,6 +133,7 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
   const ExecutorSettings& e = settings_;
   takeoff_kp_ = hind_only_ ? e.two_step_takeoff_kp : e.takeoff_kp;
   takeoff_kd_ = hind_only_ ? e.two_step_takeoff_kd : e.takeoff_kd;
+  takeoff_wheel_kd_ = hind_only_ ? e.wheel_kd : e.takeoff_wheel_kd;
   flight_kp_ = hind_only_ ? e.two_step_flight_kp : e.flight_kp;
   flight_kd_ = hind_only_ ? e.two_step_flight_kd : e.flight_kd;
   landing_decel_ = hind_only_ ? e.two_step_landing_wheel_decel_m_s2 : e.landing_wheel_decel_m_s2;
@@ -143,7 +150,7 @@ void PlanExecutor::sample(double t, model::JointCommands& out) const {
     c.qd_des = (1.0 - a) * plan_.qd(k0, j) + a * plan_.qd(k0 + 1, j);
     c.tau_ff = (1.0 - a) * plan_.tau(k0, j) + a * plan_.tau(k0 + 1, j);
     c.kp = model::isWheel(j) ? 0.0 : takeoff_kp_;
-    c.kd = model::isWheel(j) ? settings_.wheel_kd : takeoff_kd_;
+    c.kd = model::isWheel(j) ? takeoff_wheel_kd_ : takeoff_kd_;
   }
 }
 
@@ -182,6 +189,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
   switch (phase_) {
     case JumpPhase::Takeoff:
       sample(t, out);
+      if (!hind_only_) applyTakeoffWheelLaw(t, sensors, out);
       if (hind_only_ && t >= plan_.t1) {
         addHindPitchFeedback(t, R_WB * sensors.imu.omega_B, out);
         keepLiftedPairInRange(out);
@@ -252,6 +260,33 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       addLandingPitchBrake(R_WB * sensors.imu.omega_B, out);
       return;
     }
+  }
+}
+
+void PlanExecutor::applyTakeoffWheelLaw(double t, const model::SensorData& sensors,
+                                        model::JointCommands& out) const {
+  const ExecutorSettings& e = settings_;
+  const double r = model_.wheelRadius();
+  const int n = plan_.numSamples();
+  const double s = std::clamp(t / plan_.dt, 0.0, static_cast<double>(n - 1));
+  const int k0 = std::min(static_cast<int>(s), n - 2);
+  const double a = s - k0;
+  // The body's nose-up pitch rate is a rotation about -y.
+  const double body_rate_y =
+      -((1.0 - a) * plan_.centroidal[k0].pitch_rate + a * plan_.centroidal[k0 + 1].pitch_rate);
+  const double band = e.takeoff_wheel_slip_band_m_s / r;
+  for (const model::Leg leg : model::kLegs) {
+    model::JointCommand& c = out[model::jointIndex(leg, model::JointKind::Wheel)];
+    // The wheel's spin about +y in the world (the plan's rolling rate v_axle / r): the
+    // shank's, body plus HFE and KFE, and the wheel joint's. A loaded tyre rolls on ratio x r,
+    // and carries the plan's traction tau / r at a slip of that over the stiffness.
+    const double spin = body_rate_y + out[model::jointIndex(leg, model::JointKind::HFE)].qd_des +
+                        out[model::jointIndex(leg, model::JointKind::KFE)].qd_des + c.qd_des;
+    const double slip_m_s = c.tau_ff / (r * e.tyre_slip_stiffness_n_s_m);
+    c.qd_des += (1.0 / e.tyre_rolling_radius_ratio - 1.0) * spin + slip_m_s / r;
+    // No feedback inside the band: the reference moves with the measured rate up to its edge.
+    const double qd = sensors.joints[model::jointIndex(leg, model::JointKind::Wheel)].qd;
+    c.qd_des = std::clamp(qd, c.qd_des - band, c.qd_des + band);
   }
 }
 

@@ -117,6 +117,78 @@ TEST(PlanExecutor, NegativePitchGainsAreRejectedByName) {
   }
 }
 
+// The take-off's wheel law of a simultaneous plan: the plan's torque, and the speed gain only
+// on the part of the error beyond the slip band around the plan's rate, which the tyre's
+// rolling radius and the slip of the planned traction move. A two-step plan keeps wheel_kd on
+// the whole error to the plan's rate. Out of range: rejected by name.
+TEST(PlanExecutor, TakeoffWheelsGetThePlansTorqueAndASpeedLoopOnlyBeyondTheSlipBand) {
+  const model::RobotModel robot = loadRobot();
+  const double r = robot.wheelRadius();
+  const int lh = jointIndex(Leg::LH, JointKind::Wheel);
+  ExecutorSettings s = gains(0.0, 0.0, 0.0);
+  s.wheel_kd = 0.7;
+  s.takeoff_wheel_kd = 1.5;
+  s.takeoff_wheel_slip_band_m_s = 0.03;
+  s.tyre_rolling_radius_ratio = 1.0;
+  s.tyre_slip_stiffness_n_s_m = 1e300;  // a rigid tyre: the reference is the plan's rate, 0
+  // The drive's torque for command c at the measured rate qd.
+  const auto drive = [](const model::JointCommand& c, double qd) {
+    return c.tau_ff + c.kd * (c.qd_des - qd);
+  };
+  const auto at = [&](const planner::JumpPlan& plan, const ExecutorSettings& set, double qd) {
+    PlanExecutor ex(robot, plan, set, 9.81);
+    model::SensorData sensors = pitched(0.0, 0.0);
+    for (model::JointMeasurement& m : sensors.joints) m.qd = qd;
+    model::JointCommands c{};
+    ex.update(0.0, sensors, true, c);
+    ex.update(0.05, sensors, true, c);
+    return c[lh];
+  };
+  const planner::JumpPlan simultaneous = makePlan(2.0);
+  // Inside the band (0.2 rad/s = 0.017 m/s): the plan's torque alone.
+  model::JointCommand c = at(simultaneous, s, 0.2);
+  EXPECT_DOUBLE_EQ(c.kd, 1.5);
+  EXPECT_NEAR(drive(c, 0.2), 2.0, 1e-12);
+  // Beyond it (spinning up at 2 rad/s = 0.17 m/s): the gain on the excess only.
+  c = at(simultaneous, s, 2.0);
+  EXPECT_NEAR(drive(c, 2.0), 2.0 + 1.5 * (0.03 / r - 2.0), 1e-9);
+  c = at(simultaneous, s, -2.0);
+  EXPECT_NEAR(drive(c, -2.0), 2.0 + 1.5 * (2.0 - 0.03 / r), 1e-9);
+  // The tyre: with no band the reference is the plan's rate over the rolling radius ratio
+  // (the plan's wheel spins at the body's -1 rad/s about y: pitch rate 1 rad/s nose-up, legs
+  // and wheel joint at rest) plus the slip of the planned traction (2 Nm / r).
+  s.takeoff_wheel_slip_band_m_s = 0.0;
+  s.tyre_rolling_radius_ratio = 0.98;
+  s.tyre_slip_stiffness_n_s_m = 400.0;
+  c = at(simultaneous, s, 5.0);
+  EXPECT_NEAR(c.qd_des, (1.0 / 0.98 - 1.0) * -1.0 + 2.0 / (r * 400.0) / r, 1e-9);
+  // A two-step plan: wheel_kd towards the plan's rate, whatever the tyre and the band.
+  s.takeoff_wheel_slip_band_m_s = 0.5;
+  const planner::JumpPlan two_step = makePlan(0.0);
+  for (const double t : {0.05, 0.2}) {
+    PlanExecutor ex(robot, two_step, s, 9.81);
+    model::SensorData sensors = pitched(0.0, 0.0);
+    for (model::JointMeasurement& m : sensors.joints) m.qd = 0.2;
+    model::JointCommands cmd{};
+    ex.update(0.0, sensors, true, cmd);
+    ex.update(t, sensors, true, cmd);
+    EXPECT_DOUBLE_EQ(cmd[lh].kd, 0.7);
+    EXPECT_DOUBLE_EQ(cmd[lh].qd_des, 0.0);
+  }
+  for (const char* field : {"takeoff_wheel_kd", "takeoff_wheel_slip_band_m_s",
+                            "tyre_slip_stiffness_n_s_m", "tyre_rolling_radius_ratio"}) {
+    ExecutorSettings bad = s;
+    const std::string f = field;
+    if (f == "takeoff_wheel_kd") bad.takeoff_wheel_kd = -1.0;
+    if (f == "takeoff_wheel_slip_band_m_s") bad.takeoff_wheel_slip_band_m_s = std::nan("");
+    if (f == "tyre_slip_stiffness_n_s_m") bad.tyre_slip_stiffness_n_s_m = 0.0;
+    if (f == "tyre_rolling_radius_ratio") bad.tyre_rolling_radius_ratio = 1.5;
+    EXPECT_THAT(test::errorOf<std::invalid_argument>(
+                    [&] { return PlanExecutor(robot, simultaneous, bad, 9.81); }),
+                test::HasSubstr(field));
+  }
+}
+
 // A two-step plan (the backflip) runs its legs with its own take-off and flight gains and
 // lands with its own wheel deceleration; any other plan with the common ones. Out of range:
 // rejected by name.

@@ -169,6 +169,10 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
   e.takeoff_kd = m.number("takeoff_kd");
   e.wheel_kd = m.number("wheel_kd");
   e.flight_wheel_kd = m.number("flight_wheel_kd");
+  e.takeoff_wheel_kd = m.number("takeoff_wheel_kd");
+  e.takeoff_wheel_slip_band_m_s = m.number("takeoff_wheel_slip_band_m_s");
+  e.tyre_slip_stiffness_n_s_m = m.number("tyre_slip_stiffness_n_s_m");
+  e.tyre_rolling_radius_ratio = m.number("tyre_rolling_radius_ratio");
   e.flight_kp = m.number("flight_kp");
   e.flight_kd = m.number("flight_kd");
   e.flight_blend_s = m.number("flight_blend_s");

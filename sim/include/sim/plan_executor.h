@@ -30,7 +30,32 @@ std::string_view toString(JumpPhase phase);
 struct ExecutorSettings {
   double takeoff_kp = 150.0;  ///< leg stiffness tracking plan.q in take-off [Nm/rad]
   double takeoff_kd = 3.0;    ///< leg damping tracking plan.qd in take-off [Nm s/rad]
-  double wheel_kd = 1.0;      ///< wheel speed gain in take-off and landing [Nm s/rad]
+  /// Wheel speed gain in the landing, and in a two-step plan's take-off on the whole error to
+  /// the plan's rate (the robot client also holds its wheels with it before its NMPC's first
+  /// policy) [Nm s/rad].
+  double wheel_kd = 1.0;
+  /// The take-off's wheel law (issue 22, docs/planner.md "The wheels' traction in the push"):
+  /// each wheel on the ground gets the plan's torque, and its speed reference is the plan's
+  /// rolling rate corrected by the tyre (the rolling radius and the slip its planned traction
+  /// needs, below). A speed error within takeoff_wheel_slip_band_m_s of that reference gets no
+  /// feedback (the tyre's own scatter of slip, the legs' tracking errors); beyond it this gain
+  /// acts on the excess, which bounds a wheel that loses traction and spins up (or locks) to
+  /// the band plus |torque| / gain. A gain on the whole error (session 16: 1 Nm s/rad against
+  /// the plan's no-slip rate) took 0.2-2 Nm off the planned torques [Nm s/rad]. A two-step
+  /// plan (the backflip) keeps that loop with wheel_kd: on its hind wheels alone the wheel
+  /// torques close the body's pitch (hind_pitch_kp), and with this law Simbody's flips
+  /// rotated 0.1-0.2 rad less by their touchdown.
+  double takeoff_wheel_kd = 1.0;
+  /// Ground-speed error (wheel rate x radius) left to the plan's torque in the take-off [m/s].
+  double takeoff_wheel_slip_band_m_s = 0.03;
+  /// The tyre's longitudinal slip stiffness per wheel: it carries a traction F while its
+  /// contact slips at F / stiffness [N s/m]. The take-off's reference adds the slip of the
+  /// plan's wheel torque. 370 is what Simbody's wheels show in the push (docs/planner.md).
+  double tyre_slip_stiffness_n_s_m = 370.0;
+  /// The loaded tyre's rolling radius over the wheel radius: a wheel on the ground turns
+  /// 1 / ratio times faster than a rigid one of the nominal radius (the contact's
+  /// deflection). The take-off's reference scales the plan's rolling rate by it.
+  double tyre_rolling_radius_ratio = 0.99;
   /// Wheel speed gain in flight [Nm s/rad]. 0 lets the wheels spin freely: they keep the
   /// spin they rolled with at take-off (ground speed / r, which flight conserves) and trade no
   /// angular momentum with the body; a gain towards a joint speed would tilt the body.
@@ -160,6 +185,10 @@ class PlanExecutor {
   // Keeps the lifted front pair's HFE and KFE references lifted_pair_margin_rad inside their
   // range while the robot stands on its hind wheels.
   void keepLiftedPairInRange(model::JointCommands& out) const;
+  // The take-off's wheel law on the sampled references (ExecutorSettings::takeoff_wheel_kd):
+  // the speed reference corrected by the tyre, a band around it without feedback.
+  void applyTakeoffWheelLaw(double t, const model::SensorData& sensors,
+                            model::JointCommands& out) const;
   // Adds the body pitch feedback of the hind-only push to the hind wheels' torques.
   void addHindPitchFeedback(double t, const Eigen::Vector3d& omega_W,
                             model::JointCommands& out) const;
@@ -182,6 +211,7 @@ class PlanExecutor {
   bool hind_only_ = false;  // two-step plan: the front legs carry no torque in [t1, t2)
   // The leg gains and landing deceleration this plan runs with (a two-step plan's own).
   double takeoff_kp_ = 0.0, takeoff_kd_ = 0.0, flight_kp_ = 0.0, flight_kd_ = 0.0;
+  double takeoff_wheel_kd_ = 0.0;
   double landing_decel_ = 0.0;
   bool have_pitch_ = false;  // pitch0_ and pitch_ measured
   double pitch0_ = 0.0;      // body pitch at t = 0 (the plan's pitch is relative to it)

@@ -96,7 +96,7 @@ TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
   EXPECT_THROW((void)parseClientSettings(fast, "x.yaml"), std::invalid_argument);
 }
 
-TEST(ClientSettings, PlanRetriesAndTheLandingFeedbacksAreReadAndBounded) {
+TEST(ClientSettings, PlanRetriesTheWheelLawAndTheLandingFeedbacksAreReadAndBounded) {
   const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
   EXPECT_EQ(s.planner.retries, 4);
   EXPECT_DOUBLE_EQ(s.executor.touchdown_pitch_placement, 1.0);
@@ -105,6 +105,13 @@ TEST(ClientSettings, PlanRetriesAndTheLandingFeedbacksAreReadAndBounded) {
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(many, "x.yaml"); }),
       test::HasSubstr("planner.retries"));
+  EXPECT_DOUBLE_EQ(s.executor.takeoff_wheel_slip_band_m_s, 0.03);
+  EXPECT_DOUBLE_EQ(s.executor.tyre_rolling_radius_ratio, 0.99);
+  const std::string tyre =
+      replace(shippedConfig(), "tyre_rolling_radius_ratio: 0.99", "tyre_rolling_radius_ratio: 2.0");
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(tyre, "x.yaml"); }),
+      test::HasSubstr("tyre_rolling_radius_ratio must be in [0.8, 1.2]"));
   const std::string half =
       replace(shippedConfig(), "touchdown_pitch_placement: 1.0", "touchdown_pitch_placement: 1.5");
   EXPECT_THAT(
