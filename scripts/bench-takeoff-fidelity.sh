@@ -34,4 +34,32 @@ for r in rows:
         summary.setdefault(k, 0)
         summary[k] += int(v)
 print(json.dumps({"cases": len(rows), "meeting": summary, "passed": sum(r["passed"] for r in rows)}))
+# Where Simbody leaves the plan by t2 (medians per preset; docs/planner.md, "Where Simbody'"'"'s
+# momentum at t2 goes"): H (Simbody - plan) at the last sample before t2 split by the base'"'"'s
+# pitch rate, the legs (their joint rates and the posture), the wheels'"'"' spin, and the sample
+# instant (the plan'"'"'s H at t2 less at the sample); the pitch-rate error split by the joints'"'"'
+# rates, the contact and the posture; the ground'"'"'s moment impulse over the push, Simbody less
+# the plan, by the pairs'"'"' normal forces, the horizontal forces and the levers, and the plan'"'"'s
+# own imbalance (its H change less its forces'"'"' impulse).
+med = lambda v: sorted(v)[len(v) // 2] if len(v) % 2 else 0.5 * sum(sorted(v)[len(v) // 2 - 1:len(v) // 2 + 1])
+legs = ("config", "hfe_f", "kfe_f", "hfe_h", "kfe_h", "haa")
+out = {}
+for task in dict.fromkeys(r["task"] for r in rows):
+    rs = [r for r in rows if r["task"] == task and r["h_parts"] and r["h_impulse"]]
+    last = [r["h_parts"][-1] for r in rs]
+    imp = [r["h_impulse"] for r in rs]
+    col = {"dh_t2": [r["h_sim_t2"] - r["h"][0] for r in rs],
+           "same_instant": [p["total"] for p in last], "base": [p["base"] for p in last],
+           "legs": [sum(p[k] for k in legs) for p in last], "kfe_f": [p["kfe_f"] for p in last],
+           "wheel": [p["wheel"] for p in last], "instant": [-r["h_plan_instant"] for r in rs],
+           "rate": [p["pitch_rate"]["measured"] for p in last],
+           "rate_joints": [p["pitch_rate"]["joints"] for p in last],
+           "rate_contact": [p["pitch_rate"]["contact"] for p in last],
+           "rate_posture": [p["pitch_rate"]["posture"] for p in last],
+           "impulse": [i["impulse"][1] - i["impulse"][0] for i in imp],
+           "fz_front": [i["fz_front"] for i in imp], "fz_hind": [i["fz_hind"] for i in imp],
+           "fx": [i["fx"] for i in imp], "lever": [i["lever"] for i in imp],
+           "plan_imbalance": [i["dh"][0] - i["impulse"][0] for i in imp]}
+    out[task] = {k: round(med(v), 3) for k, v in col.items()}
+print(json.dumps({"momentum_decomposition_medians": out}))
 '

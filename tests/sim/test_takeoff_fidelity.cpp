@@ -11,6 +11,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -18,6 +19,7 @@
 #include <iostream>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -99,6 +101,130 @@ double simulatedMomentum(const model::RobotModel& robot, const TelemetrySample& 
   return -angularMomentumAboutCom(robot, s.q_WB.toRotationMatrix(), s.w_WB, q, qd).y();
 }
 
+/// Simbody's nose-up momentum minus the plan's at the same instant, split by what differs
+/// (H is linear in the base's angular velocity and the joint rates): the configuration (the
+/// plan's rates in Simbody's posture less the plan's), the base's angular velocity, and each
+/// group of joints' rates (Simbody's less the plan's, in Simbody's posture). The parts sum to
+/// the difference up to the central difference's O(h^2).
+struct MomentumParts {
+  /// config, base, front HFE, front KFE, hind HFE, hind KFE, HAA, wheels; then their sum.
+  static constexpr int kParts = 8;
+  static constexpr std::array<const char*, kParts + 1> kNames = {
+      "config", "base", "hfe_f", "kfe_f", "hfe_h", "kfe_h", "haa", "wheel", "total"};
+  std::array<double, kParts + 1> h{};
+  /// The wheels' mean rate relative to the base, plan / Simbody [rad/s].
+  double wheel_rate_plan = 0.0, wheel_rate_sim = 0.0;
+};
+
+/// The joint group of MomentumParts (0-based after config and base) of joint j.
+int jointGroup(int j) {
+  const auto leg = static_cast<model::Leg>(j / model::kJointsPerLeg);
+  const auto kind = static_cast<model::JointKind>(j % model::kJointsPerLeg);
+  if (kind == model::JointKind::HAA) return 4;
+  if (kind == model::JointKind::Wheel) return 5;
+  return (model::isFront(leg) ? 0 : 2) + (kind == model::JointKind::KFE ? 1 : 0);
+}
+
+MomentumParts momentumParts(const model::RobotModel& robot, const planner::JumpPlan& plan, int k,
+                            const TelemetrySample& s) {
+  JointVec q_s, qd_s;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    q_s[j] = s.q[j];
+    qd_s[j] = s.qd[j];
+  }
+  const planner::PlanarState& c = plan.centroidal[k];
+  const Eigen::Matrix3d R_p =
+      Eigen::AngleAxisd(-c.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d w_p(0.0, -c.pitch_rate, 0.0);
+  const JointVec q_p = plan.q.row(k).transpose(), qd_p = plan.qd.row(k).transpose();
+  const Eigen::Matrix3d R_s = s.q_WB.toRotationMatrix();
+  const auto noseUp = [&](const Eigen::Matrix3d& R, const Eigen::Vector3d& w, const JointVec& q,
+                          const JointVec& qd) {
+    return -angularMomentumAboutCom(robot, R, w, q, qd).y();
+  };
+  MomentumParts m;
+  m.h[0] = noseUp(R_s, w_p, q_s, qd_p) - noseUp(R_p, w_p, q_p, qd_p);
+  m.h[1] = noseUp(R_s, s.w_WB - w_p, q_s, JointVec::Zero());
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    JointVec dqd = JointVec::Zero();
+    dqd[j] = qd_s[j] - qd_p[j];
+    m.h[2 + jointGroup(j)] += noseUp(R_s, Eigen::Vector3d::Zero(), q_s, dqd);
+    if (model::isWheel(j)) {
+      m.wheel_rate_plan += qd_p[j] / model::kNumLegs;
+      m.wheel_rate_sim += qd_s[j] / model::kNumLegs;
+    }
+  }
+  m.h.back() = noseUp(R_s, s.w_WB, q_s, qd_s) - noseUp(R_p, w_p, q_p, qd_p);
+  return m;
+}
+
+/// Simbody's nose-up pitch rate minus the plan's at the same instant, from the kinematics of the
+/// two wheel pairs (left legs; the runs are symmetric): with the front and hind axles a distance
+/// dx apart along x and rising at vz_F, vz_H in W, theta' dx = (vz_F - vz_H) - (R (v_F - v_H))_z,
+/// v the axles' velocities relative to the base from the joint rates. The plan keeps its axles
+/// on the ground (vz = 0); Simbody's compliant contact does not quite. Split: the joints' rates
+/// (Simbody's less the plan's, in Simbody's posture), the contact (Simbody's axles' vz) and the
+/// posture (the plan's rates in Simbody's posture and attitude against the plan's own).
+struct PitchRateClosure {
+  double measured = 0.0;  ///< Simbody's pitch rate less the plan's [rad/s]
+  double joints = 0.0, contact = 0.0, posture = 0.0;
+};
+
+PitchRateClosure pitchRateClosure(const model::RobotModel& robot, const planner::JumpPlan& plan,
+                                  int k, const TelemetrySample& s) {
+  constexpr double h = 1e-6;  // central difference along the joint rates [s]
+  const int front = robot.joint(model::Leg::LF, model::JointKind::Wheel).child_link;
+  const int hind = robot.joint(model::Leg::LH, model::JointKind::Wheel).child_link;
+  JointVec q_s, qd_s;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    q_s[j] = s.q[j];
+    qd_s[j] = s.qd[j];
+  }
+  const planner::PlanarState& c = plan.centroidal[k];
+  const Eigen::Matrix3d R_p =
+      Eigen::AngleAxisd(-c.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Matrix3d R_s = s.q_WB.toRotationMatrix();
+  const JointVec q_p = plan.q.row(k).transpose(), qd_p = plan.qd.row(k).transpose();
+  // (R (v_F - v_H))_z and the axles' distance along x, for a posture, rates and attitude.
+  const auto relative = [&](const JointVec& q, const JointVec& qd, const Eigen::Matrix3d& R) {
+    const auto Xp = robot.calcLinkPoses(q + h * qd), Xm = robot.calcLinkPoses(q - h * qd);
+    const auto X = robot.calcLinkPoses(q);
+    const Eigen::Vector3d dv = ((Xp[front].translation() - Xm[front].translation()) -
+                                (Xp[hind].translation() - Xm[hind].translation())) /
+                               (2 * h);
+    return std::pair<double, double>((R * dv).z(),
+                                     (R * (X[front].translation() - X[hind].translation())).x());
+  };
+  const auto [dvz_s, dx_s] = relative(q_s, qd_s, R_s);
+  const auto [dvz_sp, dx_sp] = relative(q_s, qd_p, R_s);
+  const auto [dvz_p, dx_p] = relative(q_p, qd_p, R_p);
+  // Simbody's axles' vertical speeds in W: the base's motion plus the legs'.
+  const auto X = robot.calcLinkPoses(q_s);
+  const auto Xp = robot.calcLinkPoses(q_s + h * qd_s), Xm = robot.calcLinkPoses(q_s - h * qd_s);
+  const auto axleVz = [&](int link) {
+    const Eigen::Vector3d r = R_s * X[link].translation();
+    const Eigen::Vector3d v_rel = (Xp[link].translation() - Xm[link].translation()) / (2 * h);
+    return (s.v_WB + s.w_WB.cross(r) + R_s * v_rel).z();
+  };
+  PitchRateClosure out;
+  out.measured = -s.w_WB.y() - c.pitch_rate;
+  out.joints = -(dvz_s - dvz_sp) / dx_s;
+  out.contact = (axleVz(front) - axleVz(hind)) / dx_s;
+  out.posture = -dvz_sp / dx_s + dvz_p / dx_p;
+  return out;
+}
+
+/// MomentumParts and PitchRateClosure of one instant as a JSON object.
+std::string toJson(double t, const MomentumParts& m, const PitchRateClosure& p) {
+  std::ostringstream o;
+  o << std::setprecision(4) << "{\"t\": " << t;
+  for (std::size_t i = 0; i < m.h.size(); ++i) o << ", \"" << m.kNames[i] << "\": " << m.h[i];
+  o << ", \"wheel_rate\": [" << m.wheel_rate_plan << ", " << m.wheel_rate_sim
+    << "], \"pitch_rate\": {\"measured\": " << p.measured << ", \"joints\": " << p.joints
+    << ", \"contact\": " << p.contact << ", \"posture\": " << p.posture << "}}";
+  return o.str();
+}
+
 /// Nose-up moment of the plan's ground forces about the CoM at row k (t <= t2): each pair's
 /// force at its wheels' contact points, below the axles on the ground.
 double plannedMoment(const model::RobotModel& robot, const planner::JumpPlan& plan, int k) {
@@ -125,12 +251,79 @@ double plannedMoment(const model::RobotModel& robot, const planner::JumpPlan& pl
   return moment;
 }
 
+/// The ground's moment impulses about the CoM from t = 0 to Simbody's sample i_end (trapezoid
+/// rule over the 1 ms samples), Simbody's against the plan's: H(t) - H(0) of each against the
+/// integrated moment of its ground forces (the plan's differ by its pitch model's imbalance:
+/// zero for the centroidal stance_momentum, the legs' momentum for the rigid-body stance), and
+/// Simbody's impulse less the plan's split by what differs: each pair's normal force (Simbody's
+/// less the plan's, times the plan's lever), the horizontal forces (times the plan's CoM
+/// height), and the levers (the contact points under the axles relative to the CoM).
+struct MomentImpulse {
+  double dh_sim = 0.0, impulse_sim = 0.0, dh_plan = 0.0, impulse_plan = 0.0;
+  double fz_front = 0.0, fz_hind = 0.0, fx = 0.0, lever = 0.0;
+};
+
+MomentImpulse momentImpulse(const model::RobotModel& robot, const planner::JumpPlan& plan,
+                            const std::vector<TelemetrySample>& samples, std::size_t i_end) {
+  MomentImpulse out;
+  const double r = robot.wheelRadius();
+  std::array<double, 6> prev{};  // sim, plan, fz_front, fz_hind, fx, lever at the last sample
+  for (std::size_t i = 0; i <= i_end; ++i) {
+    const TelemetrySample& s = samples[i];
+    const int k = static_cast<int>(std::lround(s.t / plan.dt));
+    JointVec q_s;
+    for (int j = 0; j < model::kNumJoints; ++j) q_s[j] = s.q[j];
+    const auto X_s = robot.calcLinkPoses(q_s);
+    const Eigen::Matrix3d R_s = s.q_WB.toRotationMatrix();
+    const planner::PlanarState& c = plan.centroidal[k];
+    const JointVec q_p = plan.q.row(k).transpose();
+    const auto X_p = robot.calcLinkPoses(q_p);
+    const Eigen::Vector3d com_p = robot.calcCompositeInertia(q_p).com;
+    const Eigen::Matrix3d R_p =
+        Eigen::AngleAxisd(-c.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const planner::ForcePhase* phase = nullptr;
+    for (const planner::ForcePhase& ph : plan.force_phases)
+      if (k * plan.dt >= ph.t_start && k * plan.dt <= ph.t_end) phase = &ph;
+    std::array<double, 6> now{};
+    for (const model::Leg leg : model::kLegs) {
+      const int link = robot.joint(leg, model::JointKind::Wheel).child_link;
+      const Eigen::Vector3d axle = s.p_WB + R_s * X_s[link].translation();
+      // Nose-up moment of a force (fx, fz) at a contact x_rel ahead of and z_rel below the CoM.
+      const double x_s = axle.x() - s.p_WC.x(), z_s = s.p_WC.z() - (axle.z() - r);
+      const Eigen::Vector3d& f = s.wheel_force_W[static_cast<int>(leg)];
+      now[0] += x_s * f.z() + z_s * f.x();
+      if (!phase) continue;
+      const planner::PairForce& pair = model::isFront(leg) ? phase->front : phase->hind;
+      const double tau = k * plan.dt - phase->t_start;
+      const double fz = 0.5 * pair.fz(tau), fx = 0.5 * pair.fx(tau);
+      const double x_p = (R_p * (X_p[link].translation() - com_p)).x(), z_p = c.z;
+      now[1] += x_p * fz + z_p * fx;
+      now[model::isFront(leg) ? 2 : 3] += x_p * (f.z() - fz);
+      now[4] += z_p * (f.x() - fx);
+      now[5] += (x_s - x_p) * f.z() + (z_s - z_p) * f.x();
+    }
+    if (i > 0) {
+      const double dt = s.t - samples[i - 1].t;
+      std::array<double*, 6> acc = {&out.impulse_sim, &out.impulse_plan, &out.fz_front,
+                                    &out.fz_hind,     &out.fx,           &out.lever};
+      for (std::size_t n = 0; n < acc.size(); ++n) *acc[n] += 0.5 * (prev[n] + now[n]) * dt;
+    }
+    prev = now;
+  }
+  const int k_end = static_cast<int>(std::lround(samples[i_end].t / plan.dt));
+  out.dh_sim = simulatedMomentum(robot, samples[i_end]) - simulatedMomentum(robot, samples[0]);
+  out.dh_plan = plannedMomentum(robot, plan, k_end) - plannedMomentum(robot, plan, 0);
+  return out;
+}
+
 struct Fidelity {
   std::string task;
   double v0 = 0.0;
   double t2_plan = 0.0, t2_sim = 0.0;
   double vx_plan = 0.0, vx_sim = 0.0, vz_plan = 0.0, vz_sim = 0.0;
   double h_plan = 0.0, h_sim = 0.0, h_sim_t2 = 0.0;
+  /// The plan's H at t2 less its H at the instant of Simbody's last sample at or before t2.
+  double h_plan_instant = 0.0;
   /// The plan's total ground force at t2 (x, z) [N] and its flight's momentum: the push's at
   /// t2 plus the unloading tail's (the moment at t2 times planner::unloadingTailWeight).
   double fx_t2 = 0.0, fz_t2 = 0.0, h_plan_flight = 0.0;
@@ -231,7 +424,38 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
   const TelemetrySample* at_t2 = nullptr;
   for (const TelemetrySample& s : recorder.samples())
     if (s.t <= p.takeoff.t + 1e-9) at_t2 = &s;
+  std::string parts_json, impulse_json = "null";
   if (at_t2) {
+    // Simbody's H minus the plan's at the same instants, split (MomentumParts): the last sample
+    // at or before t2 (t2 is half-way between control instants, so its state is the push's,
+    // before the first braking step) and 10, 20, 50 and 100 ms before it (one sample per 1 ms
+    // control period).
+    const auto& all = recorder.samples();
+    const std::ptrdiff_t i_t2 = at_t2 - all.data();
+    for (const int back_ms : {100, 50, 20, 10, 0}) {
+      const std::ptrdiff_t i = i_t2 - back_ms;
+      if (i < 0) continue;
+      const int k = static_cast<int>(std::lround(all[i].t / r.plan.dt));
+      if (!parts_json.empty()) parts_json += ", ";
+      const MomentumParts parts = momentumParts(robot, r.plan, k, all[i]);
+      const PitchRateClosure pr = pitchRateClosure(robot, r.plan, k, all[i]);
+      // The parts are exact splits: they sum to the difference (up to the central differences).
+      double sum = 0.0;
+      for (int n = 0; n < MomentumParts::kParts; ++n) sum += parts.h[n];
+      EXPECT_NEAR(sum, parts.h.back(), 5e-4) << task << " t " << all[i].t;
+      EXPECT_NEAR(pr.joints + pr.contact + pr.posture, pr.measured, 1e-3) << task;
+      parts_json += toJson(all[i].t, parts, pr);
+    }
+    const MomentImpulse mi = momentImpulse(robot, r.plan, all, static_cast<std::size_t>(i_t2));
+    std::ostringstream o;
+    o << std::setprecision(4) << "{\"dh\": [" << mi.dh_plan << ", " << mi.dh_sim
+      << "], \"impulse\": [" << mi.impulse_plan << ", " << mi.impulse_sim
+      << "], \"fz_front\": " << mi.fz_front << ", \"fz_hind\": " << mi.fz_hind
+      << ", \"fx\": " << mi.fx << ", \"lever\": " << mi.lever << "}";
+    impulse_json = o.str();
+    // The sample instant: the plan's H at t2 less its H at the sample's instant.
+    const int k_s = static_cast<int>(std::lround(at_t2->t / r.plan.dt));
+    f.h_plan_instant = f.h_plan - plannedMomentum(robot, r.plan, k_s);
     f.h_sim_t2 = simulatedMomentum(robot, *at_t2);
     f.vz_sim_t2 = at_t2->v_WC.z();
     for (const Eigen::Vector3d& w : at_t2->wheel_force_W) f.fz_sim_t2 += w.z();
@@ -260,7 +484,9 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
             << ", " << f.fz_sim_t2 << ", " << f.tail_impulse_sim << "], \"apex\": [" << f.apex_plan
             << ", " << f.apex_sim << "], \"td_pitch\": [" << f.td_pitch_plan << ", "
             << f.td_pitch_sim << "], \"td_dx\": [" << f.td_dx_plan << ", " << f.td_dx_sim
-            << "], \"passed\": " << (f.passed ? "true" : "false") << "}" << std::endl;
+            << "], \"h_plan_instant\": " << f.h_plan_instant << ", \"h_parts\": [" << parts_json
+            << "], \"h_impulse\": " << impulse_json
+            << ", \"passed\": " << (f.passed ? "true" : "false") << "}" << std::endl;
   return f;
 }
 
