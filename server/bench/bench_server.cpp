@@ -41,6 +41,11 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--hit-seconds", hit_seconds, "duration of the hit benchmark")
       ->capture_default_str();
+  app.add_option("--hit-rounds", g_hit_rounds,
+                 "rounds of the hit benchmark: its four loops alternate this many times, "
+                 "each for hit-seconds / hit-rounds")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
   app.add_option("--cold-plans", cold_plans, "cold plans per deadline")->capture_default_str();
   app.add_option("--kill-rounds", kill_rounds, "kill -9 restarts")->capture_default_str();
   app.add_option("--entries", entries, "cached entries for the memory figure")

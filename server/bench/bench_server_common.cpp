@@ -121,6 +121,7 @@ v1::PlanJumpRequest standing(double v0, double height) {
 double g_output_dt_s = 0.002;
 double g_hot_responses_mb = wj::server::CacheConfig{}.hot_responses_mb;
 bool g_both_hit_paths = true;
+int g_hit_rounds = 30;
 
 wj::server::ServerConfig baseConfig(const std::filesystem::path& dir) {
   wj::server::ServerConfig c;

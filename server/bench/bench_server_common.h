@@ -118,6 +118,8 @@ extern double g_hot_responses_mb;
 // (cache_hits_regenerated) with the hot tier on, the hot tier (cache_hits_hot_tier, 64 MB) with
 // --hot-responses-mb 0.
 extern bool g_both_hit_paths;
+/// Rounds of the hit benchmark (`--hit-rounds`): the four loops alternate this many times.
+extern int g_hit_rounds;
 
 wj::server::ServerConfig baseConfig(const std::filesystem::path& dir);
 std::filesystem::path writeFastPlannerSettings(const std::filesystem::path& dir);
