@@ -139,11 +139,15 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
   landing_decel_ = hind_only_ ? e.two_step_landing_wheel_decel_m_s2 : e.landing_wheel_decel_m_s2;
 }
 
-void PlanExecutor::sample(double t, model::JointCommands& out) const {
+PlanExecutor::SamplePoint PlanExecutor::samplePoint(double t) const {
   const int n = plan_.numSamples();
   const double s = std::clamp(t / plan_.dt, 0.0, static_cast<double>(n - 1));
   const int k0 = std::min(static_cast<int>(s), n - 2);
-  const double a = s - k0;
+  return {k0, s - k0};
+}
+
+void PlanExecutor::sample(double t, model::JointCommands& out) const {
+  const auto [k0, a] = samplePoint(t);
   for (int j = 0; j < model::kNumJoints; ++j) {
     model::JointCommand& c = out[j];
     c.q_des = (1.0 - a) * plan_.q(k0, j) + a * plan_.q(k0 + 1, j);
@@ -267,10 +271,7 @@ void PlanExecutor::applyTakeoffWheelLaw(double t, const model::SensorData& senso
                                         model::JointCommands& out) const {
   const ExecutorSettings& e = settings_;
   const double r = model_.wheelRadius();
-  const int n = plan_.numSamples();
-  const double s = std::clamp(t / plan_.dt, 0.0, static_cast<double>(n - 1));
-  const int k0 = std::min(static_cast<int>(s), n - 2);
-  const double a = s - k0;
+  const auto [k0, a] = samplePoint(t);
   // The body's nose-up pitch rate is a rotation about -y.
   const double body_rate_y =
       -((1.0 - a) * plan_.centroidal[k0].pitch_rate + a * plan_.centroidal[k0 + 1].pitch_rate);

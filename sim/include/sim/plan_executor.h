@@ -180,6 +180,12 @@ class PlanExecutor {
   bool finished(double t) const;
 
  private:
+  // Where time t falls between the plan's rows: row k0 and the weight a of row k0 + 1.
+  struct SamplePoint {
+    int k0 = 0;
+    double a = 0.0;
+  };
+  SamplePoint samplePoint(double t) const;
   // Plan references interpolated linearly at time t (take-off gains).
   void sample(double t, model::JointCommands& out) const;
   // Keeps the lifted front pair's HFE and KFE references lifted_pair_margin_rad inside their
