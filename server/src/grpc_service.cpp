@@ -11,6 +11,7 @@
 
 #include "server/request_validation.h"
 #include "server/response_conversion.h"
+#include "server/stack_arena.h"
 #include "server/status_mapping.h"
 
 namespace wj::server {
@@ -227,12 +228,8 @@ grpc::ServerUnaryReactor* JumpPlannerService::PlanJump(grpc::CallbackServerConte
   }
   // The request is parsed on an arena whose first block is on this stack: no heap allocation
   // for a request of ordinary size (a few hundred bytes on the wire).
-  alignas(std::max_align_t) char block[8192];
-  google::protobuf::ArenaOptions options;
-  options.initial_block = block;
-  options.initial_block_size = sizeof block;
-  google::protobuf::Arena arena(options);
-  auto* request = google::protobuf::Arena::CreateMessage<v1::PlanJumpRequest>(&arena);
+  StackArena<8192> arena;
+  auto* request = google::protobuf::Arena::CreateMessage<v1::PlanJumpRequest>(arena.get());
   {
     grpc::ByteBuffer copy(*request_bytes);  // shares the slices; Deserialize consumes its buffer
     if (!grpc::SerializationTraits<v1::PlanJumpRequest>::Deserialize(&copy, request).ok()) {

@@ -2,7 +2,7 @@
 
 #include <google/protobuf/arena.h>
 
-#include <cstddef>
+#include "server/stack_arena.h"
 
 namespace wj::server {
 
@@ -18,12 +18,8 @@ grpc::Slice readySuffix(std::string_view request_id, double total_ms) {
   // Fields at their default are not written (proto3), and the ready bytes hold them at their
   // default: the parsed result is the same either way. Built on an arena whose block is on this
   // stack and serialized straight into the slice: one allocation per hot hit (the slice's).
-  alignas(std::max_align_t) char block[1024];
-  google::protobuf::ArenaOptions options;
-  options.initial_block = block;
-  options.initial_block_size = sizeof block;
-  google::protobuf::Arena arena(options);
-  auto* own = google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(&arena);
+  StackArena<1024> arena;
+  auto* own = google::protobuf::Arena::CreateMessage<v1::PlanJumpResponse>(arena.get());
   own->set_request_id(request_id.data(), request_id.size());
   own->mutable_stats()->set_total_ms(total_ms);
   own->set_ready_response(true);
