@@ -32,6 +32,11 @@ namespace {
 
 using JointVec = Eigen::Matrix<double, model::kNumJoints, 1>;
 
+/// A telemetry sample's joint array as a vector.
+JointVec toJointVec(const std::array<double, model::kNumJoints>& a) {
+  return Eigen::Map<const JointVec>(a.data());
+}
+
 /// Angular momentum of the whole robot about its CoM, in W [kg m^2/s], from the base
 /// orientation R_WB and angular velocity w_WB (in W) and the joints' q and qd. Independent of
 /// the base's position and linear velocity.
@@ -127,11 +132,7 @@ int jointGroup(int j) {
 
 MomentumParts momentumParts(const model::RobotModel& robot, const planner::JumpPlan& plan, int k,
                             const TelemetrySample& s) {
-  JointVec q_s, qd_s;
-  for (int j = 0; j < model::kNumJoints; ++j) {
-    q_s[j] = s.q[j];
-    qd_s[j] = s.qd[j];
-  }
+  const JointVec q_s = toJointVec(s.q), qd_s = toJointVec(s.qd);
   const planner::PlanarState& c = plan.centroidal[k];
   const Eigen::Matrix3d R_p =
       Eigen::AngleAxisd(-c.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
@@ -175,11 +176,7 @@ PitchRateClosure pitchRateClosure(const model::RobotModel& robot, const planner:
   constexpr double h = 1e-6;  // central difference along the joint rates [s]
   const int front = robot.joint(model::Leg::LF, model::JointKind::Wheel).child_link;
   const int hind = robot.joint(model::Leg::LH, model::JointKind::Wheel).child_link;
-  JointVec q_s, qd_s;
-  for (int j = 0; j < model::kNumJoints; ++j) {
-    q_s[j] = s.q[j];
-    qd_s[j] = s.qd[j];
-  }
+  const JointVec q_s = toJointVec(s.q), qd_s = toJointVec(s.qd);
   const planner::PlanarState& c = plan.centroidal[k];
   const Eigen::Matrix3d R_p =
       Eigen::AngleAxisd(-c.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
@@ -271,8 +268,7 @@ MomentImpulse momentImpulse(const model::RobotModel& robot, const planner::JumpP
   for (std::size_t i = 0; i <= i_end; ++i) {
     const TelemetrySample& s = samples[i];
     const int k = static_cast<int>(std::lround(s.t / plan.dt));
-    JointVec q_s;
-    for (int j = 0; j < model::kNumJoints; ++j) q_s[j] = s.q[j];
+    const JointVec q_s = toJointVec(s.q);
     const auto X_s = robot.calcLinkPoses(q_s);
     const Eigen::Matrix3d R_s = s.q_WB.toRotationMatrix();
     const planner::PlanarState& c = plan.centroidal[k];
