@@ -268,6 +268,7 @@ void solveFlight(const JumpModelConstants& M, Solved& S) {
     for (const JointBrake& b : S.brake[pair]) S.brake_end = std::max(S.brake_end, b.t_stop);
     for (int j = 0; j < 2; ++j) S.tuck_duration[pair][j] = tuckDuration(M, S, pair, j);
   }
+  addUnloadingTailMoment(M, S);
   integrateFlightAttitude(M, S);
   S.t3 = S.t2 + S.Tf;
   S.t3 = touchdownTime(M, S);

@@ -57,59 +57,6 @@ struct JointBrake {
   double torqueAt(double tau) const;
 };
 
-/// The solved take-off: every polynomial of the trajectory.
-struct Solved {
-  bool two_step = false;
-  // t2 + Tf is when the ballistic CoM comes down to the landing height (the legs' flight
-  // schedule is in fractions of Tf); t3 the touchdown, the first wheel on the landing surface
-  // (solveFlight; until then t2 + Tf), never before t3_min (docs/planner.md, "Touchdown").
-  double t1 = 0, T2 = 0, t2 = 0, Tf = 0, t3 = 0, t3_min = 0;
-  Poly X1, Z1, P1, VX1, VZ1, W1;  // phase 1, in t
-  Poly fHx1, fHz1, fFx1, fFz1;    // pair forces, phase 1
-  Poly X2, Z2, P2, VX2, VZ2, W2;  // phase 2, in tau = t - t1
-  Poly fHx2, fHz2;                // hind forces, phase 2
-  Poly dH2, ddH2;                 // hind axle offset from the CoM and its rate, phase 2
-  Poly Fx1, Fz1, Fx2, Fz2;        // total ground force per phase (x and z axis solves)
-  double pm = 0, pe = 0, we = 0;  // pitch targets: at t1/2, at t2, pitch rate at t2
-  // The legs' and wheels' momentum in stance, E(t) - E(0): phase 1 in t, phase 2 in tau
-  // (solveStanceMomentum; zero until it ran, which `stance_momentum` records).
-  Poly D1, D2;
-  bool stance_momentum = false;
-  double e_t1 = 0.0;  // E at t1 from the first pass (two-step: the front's t1 sample)
-  Eigen::Vector2d c_front_t1 = Eigen::Vector2d::Zero();  // ... and its CoM offset
-  bool takeoff_posture = false;                          // q_to, c_to, qd_to and wheel_to are final
-  // `takeoff` is the flight's start: the push's state at t2 plus the unloading tail's
-  // velocity change (addUnloadingTail); tail_h is the tail's nose-up angular impulse about the
-  // CoM [kg m^2/s], which the flight's momentum adds.
-  PlanarState mid, takeoff, touchdown;
-  double tail_h = 0.0;
-  Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
-  double front_wheel_rate_t1 = 0.0;
-  LegPose front_pose_t1;  // inversePose(front_b_t1), and its reach margin
-  double front_reach_t1 = 0.0;
-  // Two-step: the front pair's (HFE, KFE) braking from their speeds at t1 once lifted, and
-  // the pose it comes to rest in.
-  std::array<JointBrake, 2> front_brake{};
-  LegPose front_pose_stop;
-  // The legs' braking from their take-off speeds at t2 (per pair), before they tuck, and when
-  // the last joint is at rest (after t2).
-  std::array<std::array<JointBrake, 2>, 2> brake{};
-  double brake_end = 0.0;
-  // How long each pair's (HFE, KFE) then tuck (tuckDuration) [s].
-  std::array<Eigen::Vector2d, 2> tuck_duration{};
-  // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
-  // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
-  // moving (docs/planner.md, "Flight").
-  std::array<Eigen::Vector2d, 2> q_to{}, qd_to{};
-  Eigen::Vector2d c_to = Eigen::Vector2d::Zero();  // CoM in the base at take-off
-  std::array<double, 2> wheel_to{};
-  int n_flight = 0;
-  std::array<double, 257> flight_pitch{}, flight_rate{};
-  // The legs' (HFE, KFE) per pair and the CoM in the base at the same flight instants.
-  std::array<std::array<Eigen::Vector2d, 257>, 2> flight_q{};
-  std::array<Eigen::Vector2d, 257> flight_c{};
-};
-
 /// Kinematics and statics of one wheel pair at one instant (left leg; right is mirrored).
 struct PairSample {
   bool contact = false;
@@ -145,6 +92,61 @@ struct Sample {
   double hind_axle_vx = 0.0;
 };
 
+/// The solved take-off: every polynomial of the trajectory.
+struct Solved {
+  bool two_step = false;
+  // t2 + Tf is when the ballistic CoM comes down to the landing height (the legs' flight
+  // schedule is in fractions of Tf); t3 the touchdown, the first wheel on the landing surface
+  // (solveFlight; until then t2 + Tf), never before t3_min (docs/planner.md, "Touchdown").
+  double t1 = 0, T2 = 0, t2 = 0, Tf = 0, t3 = 0, t3_min = 0;
+  Poly X1, Z1, P1, VX1, VZ1, W1;  // phase 1, in t
+  Poly fHx1, fHz1, fFx1, fFz1;    // pair forces, phase 1
+  Poly X2, Z2, P2, VX2, VZ2, W2;  // phase 2, in tau = t - t1
+  Poly fHx2, fHz2;                // hind forces, phase 2
+  Poly dH2, ddH2;                 // hind axle offset from the CoM and its rate, phase 2
+  Poly Fx1, Fz1, Fx2, Fz2;        // total ground force per phase (x and z axis solves)
+  double pm = 0, pe = 0, we = 0;  // pitch targets: at t1/2, at t2, pitch rate at t2
+  // The legs' and wheels' momentum in stance, E(t) - E(0): phase 1 in t, phase 2 in tau
+  // (solveStanceMomentum; zero until it ran, which `stance_momentum` records).
+  Poly D1, D2;
+  bool stance_momentum = false;
+  double e_t1 = 0.0;  // E at t1 from the first pass (two-step: the front's t1 sample)
+  Eigen::Vector2d c_front_t1 = Eigen::Vector2d::Zero();  // ... and its CoM offset
+  bool takeoff_posture = false;                          // q_to, c_to, qd_to and wheel_to are final
+  // `takeoff` is the flight's start: the push's state at t2 plus the unloading tail's
+  // velocity change (addUnloadingTail); tail_h is the tail's nose-up angular impulse about the
+  // CoM [kg m^2/s], which the flight's momentum adds: tail_weight [s] times the moment the
+  // motion at t2 needs (addUnloadingTailMoment, once the take-off posture is known).
+  PlanarState mid, takeoff, touchdown;
+  double tail_weight = 0.0, tail_h = 0.0;
+  Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
+  double front_wheel_rate_t1 = 0.0;
+  LegPose front_pose_t1;  // inversePose(front_b_t1), and its reach margin
+  double front_reach_t1 = 0.0;
+  // Two-step: the front pair's (HFE, KFE) braking from their speeds at t1 once lifted, and
+  // the pose it comes to rest in.
+  std::array<JointBrake, 2> front_brake{};
+  LegPose front_pose_stop;
+  // The legs' braking from their take-off speeds at t2 (per pair), before they tuck, and when
+  // the last joint is at rest (after t2).
+  std::array<std::array<JointBrake, 2>, 2> brake{};
+  double brake_end = 0.0;
+  // How long each pair's (HFE, KFE) then tuck (tuckDuration) [s].
+  std::array<Eigen::Vector2d, 2> tuck_duration{};
+  // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
+  // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
+  // moving (docs/planner.md, "Flight").
+  std::array<Eigen::Vector2d, 2> q_to{}, qd_to{};
+  Eigen::Vector2d c_to = Eigen::Vector2d::Zero();  // CoM in the base at take-off
+  std::array<double, 2> wheel_to{};
+  Sample to_sample;  // the converged contact sample at t2 they come from
+  int n_flight = 0;
+  std::array<double, 257> flight_pitch{}, flight_rate{};
+  // The legs' (HFE, KFE) per pair and the CoM in the base at the same flight instants.
+  std::array<std::array<Eigen::Vector2d, 257>, 2> flight_q{};
+  std::array<Eigen::Vector2d, 257> flight_c{};
+};
+
 /// Whether the take-off's constraint samples chain their CoM-offset iteration from the
 /// converged take-off posture backwards (PlannerSettings::contact_chain), which a backflip
 /// always does: chained from the start, the flips' lift-off sample missed the converged
@@ -167,6 +169,11 @@ bool solve(const JumpModelConstants& M, const Eigen::Ref<const Eigen::VectorXd>&
 // pass's path, interpolated per phase, and the pitch solved again with it. Once per S; nothing
 // unless settings.stance_momentum.
 bool solveStanceMomentum(const JumpModelConstants& M, Solved& S);
+// The unloading tail's angular impulse (S.tail_h) of a simultaneous take-off with its take-off
+// posture: S.tail_weight times the rate of the whole robot's angular momentum at t2, the moment
+// that the ground forces, balanced for the legs' motion, make there (docs/planner.md, "The
+// balanced stance"). Zero for a two-step take-off or without the tail.
+void addUnloadingTailMoment(const JumpModelConstants& M, Solved& S);
 // The nose-up angular momentum about the CoM of a take-off sample (legs, wheels' spin and
 // body) less the rigid body's I theta' [kg m^2/s].
 double stanceMomentumExcess(const JumpModelConstants& M, const Sample& smp);

@@ -49,10 +49,15 @@ void planRow(const JumpModelConstants& M, const Solved& S, const StanceDynamics&
   std::array<double, 2> wheel_rate{}, wheel_tau{}, haa_fz{};
   out.tau.setZero();
   Sample smp;
+  StanceAccelerations acc;
   if (segment != Segment::Flight) {
     contactSample(M, S, t, smp, segment == Segment::HindOnly, c_guess,
                   /*converge=*/true);
     c_guess = smp.c;
+    acc = stanceAccelerations(M, S, D, smp);
+    // The pairs' normal forces that make the moment the motion needs (docs/planner.md, "The
+    // balanced stance"); a two-step take-off (the backflips) keeps the model's split.
+    if (!S.two_step) balancePairForces(M, acc, smp);
     out.s = smp.s;
     int i = 0;
     for (const PairSample* p : {&smp.hind, &smp.front}) {
@@ -104,7 +109,7 @@ void planRow(const JumpModelConstants& M, const Solved& S, const StanceDynamics&
     out.tau[haa + 3] = wheel_tau[pair];
   }
   // The legs' own dynamics in place of the statics (docs/planner.md, "Stance torques").
-  if (segment != Segment::Flight) addStanceTorques(M, S, D, smp, out.tau);
+  if (segment != Segment::Flight) addStanceTorques(M, D, smp, acc, out.tau);
 }
 
 // D = [s(t1/2), s(t2), s(t3), t1, t2, t3] of a solved candidate.

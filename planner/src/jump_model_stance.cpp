@@ -52,6 +52,7 @@ void setTakeoffPosture(const Sample& smp, Solved& S) {
   S.c_to = smp.c;
   S.qd_to = {smp.hind.qd, smp.front.qd};
   S.wheel_to = {smp.hind.wheel_rate, smp.front.wheel_rate};
+  S.to_sample = smp;
 }
 
 // The CoM in the base frame for the pairs' poses.

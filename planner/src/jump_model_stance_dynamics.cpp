@@ -4,6 +4,7 @@
 
 #include "jump_model_stance_dynamics.h"
 
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -27,14 +28,17 @@ namespace wj::planner::detail {
 // links' from the joints' by the forward recursion of the same section. The links' pitch
 // inertia only (planar motion).
 
-StanceDynamics::StanceDynamics(const JumpModelConstants& M, const Solved& S)
+TakeoffAccelerations::TakeoffAccelerations(const Solved& S)
     : ax1(derivative(S.VX1)),
       az1(derivative(S.VZ1)),
       aw1(derivative(S.W1)),
       ax2(derivative(S.VX2)),
       az2(derivative(S.VZ2)),
       aw2(derivative(S.W2)),
-      ddd_h2(derivative(S.ddH2)) {
+      ddd_h2(derivative(S.ddH2)) {}
+
+StanceDynamics::StanceDynamics(const JumpModelConstants& M, const Solved& S)
+    : TakeoffAccelerations(S) {
   const std::vector<Eigen::Isometry3d> X_B = M.robot.calcLinkPoses(M.init_input.q);
   const auto& joints = M.robot.joints();
   const auto& links = M.robot.links();
@@ -99,7 +103,7 @@ Eigen::Vector2d perp(const Eigen::Vector2d& v) {
 // minus the vector); the same matrix as the joint rates' (contactStatics). A lifted front pair
 // brakes: its q'' is the braking's. The base origin from com = p_B + R c.
 StanceAccelerations stanceAccelerations(const JumpModelConstants& M, const Solved& S,
-                                        const StanceDynamics& D, const Sample& smp) {
+                                        const TakeoffAccelerations& D, const Sample& smp) {
   StanceAccelerations acc;
   const double local = smp.local;
   const PlanarState& s = smp.s;
@@ -172,6 +176,61 @@ StanceAccelerations stanceAccelerations(const JumpModelConstants& M, const Solve
 
 namespace {
 
+// The wheel's absolute spin acceleration's part that is not the shank's: its joint
+// acceleration is axle_ax / r + pitch'' - q1'' - q2'' (rolling without slip, contactStatics).
+double wheelAcceleration(const JumpModelConstants& M, const StanceAccelerations& acc, int pair) {
+  const double axle_ax = pair == 0 ? acc.hind_axle_x : acc.com.x();
+  return axle_ax / M.wheel_radius + acc.pitch - acc.qdd[pair][0] - acc.qdd[pair][1];
+}
+
+}  // namespace
+
+// H(t) = stanceMomentumExcess + I theta' is a function of the joints' angles and rates, the
+// wheels' rates and the pitch rate (not of the pitch, nor of the CoM's motion), so its rate is
+// the directional derivative along (q', q'', the wheels' accelerations, theta''): a central
+// difference over +-1e-5 s of that line, exact to ~1e-9 of H's scale (its third derivative
+// times eps^2), with no posture solve.
+double momentumRate(const JumpModelConstants& M, const Sample& smp,
+                    const StanceAccelerations& acc) {
+  constexpr double eps = 1e-5;  // [s]
+  const std::array<const PairSample*, 2> pairs{&smp.hind, &smp.front};
+  auto h_at = [&](double e) {
+    std::array<Eigen::Vector2d, 2> q, qd;
+    std::array<double, 2> wheel{};
+    for (int pair = 0; pair < 2; ++pair) {
+      const PairSample& p = *pairs[static_cast<std::size_t>(pair)];
+      q[pair] = p.q + e * p.qd;
+      qd[pair] = p.qd + e * acc.qdd[pair];
+      // A lifted front pair's wheel holds its rate (contactStatics).
+      const double wheel_acc = p.contact ? wheelAcceleration(M, acc, pair) : 0.0;
+      wheel[pair] = p.wheel_rate + e * wheel_acc;
+    }
+    const double w = smp.s.pitch_rate + e * acc.pitch;
+    return stanceMomentumExcess(M, q, qd, wheel, w) + M.inertia * w;
+  };
+  return (h_at(eps) - h_at(-eps)) / (2.0 * eps);
+}
+
+double groundMoment(const Sample& smp) {
+  double moment = 0.0;
+  for (const PairSample* p : {&smp.hind, &smp.front})
+    if (p->contact)  // two wheels; the contact point on the ground below the axle
+      moment += 2.0 * ((p->axle.x() - smp.s.x) * p->f.y() + smp.s.z * p->f.x());
+  return moment;
+}
+
+void balancePairForces(const JumpModelConstants& M, const StanceAccelerations& acc, Sample& smp) {
+  if (!smp.hind.contact || !smp.front.contact) return;
+  const double lever = smp.front.axle.x() - smp.hind.axle.x();
+  if (!(lever > 0.0)) return;
+  // Per wheel: the pairs' normal forces differ by 2 df, whose moment is 2 df * lever.
+  const double df = (momentumRate(M, smp, acc) - groundMoment(smp)) / (2.0 * lever);
+  smp.front.f.y() += df;
+  smp.hind.f.y() -= df;
+}
+
+namespace {
+
 // Rotation about y by the angle of sine sn and cosine cs.
 Eigen::Vector3d rotateY(double sn, double cs, const Eigen::Vector3d& v) {
   return {cs * v.x() + sn * v.z(), v.y(), -sn * v.x() + cs * v.z()};
@@ -196,9 +255,9 @@ LegPoint onLink(const LegPoint& origin, const Eigen::Vector3d& rho, double w, do
 // at w_B = -pitch' e_y; a point at r with velocity v and acceleration a relative to H has the
 // acceleration a_H + w_B' x r + w_B x (w_B x r) + 2 w_B x v + a (the transport theorem). The
 // links' pitch accelerations about the world's y axis are -pitch'' + e_y . (their turn in H)''.
-void addStanceTorques(const JumpModelConstants& M, const Solved& S, const StanceDynamics& D,
-                      const Sample& smp, Eigen::Matrix<double, model::kNumJoints, 1>& tau) {
-  const StanceAccelerations acc = stanceAccelerations(M, S, D, smp);
+void addStanceTorques(const JumpModelConstants& M, const StanceDynamics& D, const Sample& smp,
+                      const StanceAccelerations& acc,
+                      Eigen::Matrix<double, model::kNumJoints, 1>& tau) {
   const Rot2& R = smp.R;
   const double w = smp.s.pitch_rate, w_dot = acc.pitch;
   const Eigen::Vector2d up_b = R.transposeTimes(Eigen::Vector2d(0.0, 1.0));  // world z in B
@@ -246,8 +305,7 @@ void addStanceTorques(const JumpModelConstants& M, const Solved& S, const Stance
     const std::array<double, 4> pitch_dd{-w_dot, -w_dot + a1 * e_yy, -w_dot + a12 * e_yy,
                                          -w_dot + a12 * e_yy};
     // The wheel's spin: rate = v_axle / r - (-pitch' + q1' + q2') (contactStatics).
-    const double axle_ax = pair == 0 ? acc.hind_axle_x : acc.com.x();
-    const double wheel_acc = axle_ax / M.wheel_radius + w_dot - qdd[0] - qdd[1];
+    const double wheel_acc = wheelAcceleration(M, acc, pair);
     // Up the chain: the links below each joint and the ground force at the contact point.
     const Eigen::Vector3d f_c = in_h(p.f);
     const Eigen::Vector3d p_c =

@@ -11,15 +11,23 @@
 
 namespace wj::planner::detail {
 
+/// The acceleration polynomials of one solved take-off: what stanceAccelerations() needs
+/// beyond the sample. Cheap (derivatives of S's polynomials): the DE's evaluate builds one for
+/// the unloading tail's moment (takeoffMomentumRate).
+struct TakeoffAccelerations {
+  Poly ax1, az1, aw1;  ///< CoM x, z and pitch accelerations, phase 1 (in t)
+  Poly ax2, az2, aw2;  ///< ... phase 2 (in tau = t - t1)
+  Poly ddd_h2;         ///< the hind axle offset's acceleration, phase 2
+
+  explicit TakeoffAccelerations(const Solved& S);
+};
+
 /// What the stance torques need that is fixed for one solved take-off: the acceleration
 /// polynomials and, per leg, its links in the frame H of its HFE joint (which moves with the
 /// base: the HAA holds its initial angle in the take-off). Below H a leg is planar: the KFE and
 /// wheel axes are H's y axis (checked; the planner's leg model assumes it throughout). Built
 /// once per plan export.
-struct StanceDynamics {
-  Poly ax1, az1, aw1;  ///< CoM x, z and pitch accelerations, phase 1 (in t)
-  Poly ax2, az2, aw2;  ///< ... phase 2 (in tau = t - t1)
-  Poly ddd_h2;         ///< the hind axle offset's acceleration, phase 2
+struct StanceDynamics : TakeoffAccelerations {
   struct Chain {
     Eigen::Matrix3d R_hfe = Eigen::Matrix3d::Identity();  ///< H in the base
     Eigen::Vector3d t_hfe = Eigen::Vector3d::Zero();
@@ -55,12 +63,29 @@ struct StanceAccelerations {
 /// The accelerations of a sample from contactSample() (the contact geometry differentiated
 /// twice; a lifted front pair's joints brake).
 StanceAccelerations stanceAccelerations(const JumpModelConstants& M, const Solved& S,
-                                        const StanceDynamics& D, const Sample& smp);
+                                        const TakeoffAccelerations& D, const Sample& smp);
+
+/// The rate of change of the whole robot's nose-up angular momentum about its CoM at a contact
+/// sample with its accelerations (the legs' and wheels' motion included): the moment about the
+/// CoM that the ground forces must make for the sample's motion [Nm].
+double momentumRate(const JumpModelConstants& M, const Sample& smp, const StanceAccelerations& acc);
+
+/// The nose-up moment about the CoM of the sample's ground forces (per wheel in p.f) [Nm].
+double groundMoment(const Sample& smp);
+
+/// Balances a simultaneous take-off's four-wheel sample (docs/planner.md, "The balanced
+/// stance"): the rigid-body pitch of Eq. S-0 leaves out what the legs' motion adds to the
+/// angular momentum (E' of "Stance momentum"), so the pairs' normal forces of the model do not
+/// make the moment the sample's motion needs. Moves part of the normal force from one pair to
+/// the other (the total, and so the CoM's motion, unchanged) until their moment is
+/// momentumRate(). Nothing for a sample with one pair in contact.
+void balancePairForces(const JumpModelConstants& M, const StanceAccelerations& acc, Sample& smp);
 
 /// The joint torques of each leg in contact at the sample (HAA, HFE, KFE, wheel): the
 /// Newton-Euler balance of the links below each joint with the wheel's share of its pair's
 /// ground force. The other legs' entries of `tau` are left as they are.
-void addStanceTorques(const JumpModelConstants& M, const Solved& S, const StanceDynamics& D,
-                      const Sample& smp, Eigen::Matrix<double, model::kNumJoints, 1>& tau);
+void addStanceTorques(const JumpModelConstants& M, const StanceDynamics& D, const Sample& smp,
+                      const StanceAccelerations& acc,
+                      Eigen::Matrix<double, model::kNumJoints, 1>& tau);
 
 }  // namespace wj::planner::detail

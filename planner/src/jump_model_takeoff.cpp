@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "jump_model_internal.h"
+#include "jump_model_stance_dynamics.h"
 
 namespace wj::planner::detail {
 
@@ -114,19 +115,21 @@ double frontPairHandover(const JumpModelConstants& M, const Sample& smp) {
 // its grid of kExecutorControlPeriod from t = 0, so the push's torques, and with them about the
 // force at t2, hold until then; from there the contact unloads, falling about linearly to zero
 // over settings.takeoff_unload_s while the legs brake (Simbody: 3 ms). The impulse, the force
-// at t2 times (hold + half that time), goes into the flight's CoM velocity, and the moment of
-// Eq. S-0 at t2 times the same into its angular momentum. The tail is taken as an impulse at
-// t2: what moves the CoM within it (~0.1 mm) and the contacts' travel are left out. A zero
-// unloading time turns the whole tail off (the flight from the push's state at t2).
+// at t2 times (hold + half that time), goes into the flight's CoM velocity, and the moment at
+// t2 times the same into its angular momentum (addUnloadingTailMoment: the moment the motion
+// needs, which the balanced forces make; Eq. S-0's rigid-body moment of the model's split left
+// out the legs' 25-33 Nm there). The tail is taken as an impulse at t2: what moves the CoM
+// within it (~0.1 mm) and the contacts' travel are left out. A zero unloading time turns the
+// whole tail off (the flight from the push's state at t2).
 void addUnloadingTail(const JumpModelConstants& M, Solved& S) {
+  S.tail_weight = 0.0;
   S.tail_h = 0.0;
   if (S.two_step || !(M.settings.takeoff_unload_s > 0.0)) return;
   const double t = S.t2;
   const double w = unloadingTailWeight(t, kExecutorControlPeriod, M.settings.takeoff_unload_s);
-  const double fx = S.Fx1(t), fz = S.Fz1(t);
-  S.takeoff.vx += w * fx / M.mass;
-  S.takeoff.vz += w * fz / M.mass;
-  S.tail_h = w * (M.d_hind * fz + (M.d_front - M.d_hind) * S.fFz1(t) + S.Z1(t) * fx);
+  S.tail_weight = w;
+  S.takeoff.vx += w * S.Fx1(t) / M.mass;
+  S.takeoff.vz += w * S.Fz1(t) / M.mass;
 }
 
 // The pitch of the take-off (Eq. S3, centroidal): the whole robot's angular momentum about its
@@ -376,6 +379,13 @@ bool solveStanceMomentum(const JumpModelConstants& M, Solved& S) {
     S.D2 = interpolate(t, y, 3);
   }
   return solvePitch(M, S);
+}
+
+void addUnloadingTailMoment(const JumpModelConstants& M, Solved& S) {
+  S.tail_h = 0.0;
+  if (!(S.tail_weight > 0.0)) return;
+  const StanceAccelerations acc = stanceAccelerations(M, S, TakeoffAccelerations(S), S.to_sample);
+  S.tail_h = S.tail_weight * momentumRate(M, S.to_sample, acc);
 }
 
 PlanarState stateAt(const JumpModelConstants& M, const Solved& S, double t, double g) {

@@ -96,6 +96,19 @@ double plannedLiftOffMomentum(const model::RobotModel& robot, const planner::Jum
   return h1 + (h1 - h0) * (t2 - k * plan.dt) / plan.dt;
 }
 
+/// ... and its rate at t2 [Nm]: the derivative at t2 of the quadratic through the push's last
+/// three rows (the moment the plan's motion needs there, which the planner's unloading tail
+/// takes with its balanced forces: docs/planner.md, "The balanced stance").
+double plannedLiftOffMomentumRate(const model::RobotModel& robot, const planner::JumpPlan& plan,
+                                  double t2) {
+  const int k = std::clamp(static_cast<int>(std::floor(t2 / plan.dt + 1e-9)), 2,
+                           static_cast<int>(plan.centroidal.size()) - 1);
+  const double h2 = plannedMomentum(robot, plan, k), h1 = plannedMomentum(robot, plan, k - 1),
+               h0 = plannedMomentum(robot, plan, k - 2);
+  const double x = (t2 - k * plan.dt) / plan.dt;  // 0 at row k
+  return ((h2 - h1) + (h2 - 2.0 * h1 + h0) * (x + 0.5)) / plan.dt;
+}
+
 /// Nose-up angular momentum of a simulated instant.
 double simulatedMomentum(const model::RobotModel& robot, const TelemetrySample& s) {
   JointVec q, qd;
@@ -403,14 +416,12 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
   const double tau_end = last.t_end - last.t_start;
   f.fx_t2 = last.hind.fx(tau_end) + last.front.fx(tau_end);
   f.fz_t2 = last.hind.fz(tau_end) + last.front.fz(tau_end);
-  const int k_t2 = std::min(static_cast<int>(std::floor(p.takeoff.t / r.plan.dt + 1e-9)),
-                            static_cast<int>(r.plan.centroidal.size()) - 1);
   f.h_plan_flight =
       f.h_plan + (sc.task.mode == planner::TakeoffMode::TwoStep
                       ? 0.0
                       : planner::unloadingTailWeight(p.takeoff.t, planner::kExecutorControlPeriod,
                                                      planner.settings().takeoff_unload_s) *
-                            plannedMoment(robot, r.plan, k_t2));
+                            plannedLiftOffMomentumRate(robot, r.plan, p.takeoff.t));
   const TelemetrySample* lift = nullptr;
   for (const TelemetrySample& s : recorder.samples())
     if (s.t <= m.takeoff.t + 1e-9) lift = &s;
