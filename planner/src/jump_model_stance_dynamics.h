@@ -1,8 +1,10 @@
 #pragma once
 /// @file The legs' own dynamics in the take-off (issue 22, sessions 13 and 15; docs/planner.md,
 /// "Stance torques"): the exact accelerations of a contact sample (CoM, pitch, joints, base)
-/// and the joint torques of the legs in contact as a Newton-Euler balance of their links. Used
-/// by the plan export (jump_model_plan.cpp); the DE's evaluate keeps the statics.
+/// and the joint torques of the legs in contact as a Newton-Euler balance of their links; the
+/// whole robot's momentum rate and the pairs' normal forces balanced to make it (session 18,
+/// "The balanced stance"). Used by the plan export (jump_model_plan.cpp); the DE's evaluate
+/// keeps the statics and takes the momentum rate at t2 only (the unloading tail's moment).
 
 #include <Eigen/Core>
 #include <array>
