@@ -45,20 +45,31 @@ auto secondDerivativeAt(F f, double t, double a, double b, double h) {
   return ((f(t + h) - 2.0 * f(t) + f(t - h)) / (h * h)).eval();
 }
 
+// A preset's plan (the DE's, seed 7, 2 threads) solved by its model.
+struct SolvedPreset {
+  Scenario sc;
+  JumpModel model;
+  Solved S;
+  bool solved = false;
+  SolvedPreset(const JumpPlanner& planner, const char* task)
+      : sc(makePreset(planner, task)),
+        model(planner.robot(), planner.settings(), sc.task, sc.initial) {
+    PlanOptions opts;
+    opts.seed = 7;
+    opts.threads = 2;
+    solved = solve(model.constants(), planner.plan(sc.task, sc.initial, opts).u, S);
+  }
+};
+
 TEST(StanceDynamics, AccelerationsMatchFiniteDifferencesOfTheContactSamples) {
   const auto robot = model::RobotModel::loadDefault();
   const JumpPlanner planner(robot, PlannerSettings{});
   for (const char* task : {"forward_hw", "forward", "vertical", "backflip"}) {
     SCOPED_TRACE(task);
-    const Scenario sc = makePreset(planner, task);
-    PlanOptions opts;
-    opts.seed = 7;
-    opts.threads = 2;
-    const Eigen::VectorXd u = planner.plan(sc.task, sc.initial, opts).u;
-    const JumpModel model(robot, planner.settings(), sc.task, sc.initial);
-    const JumpModelConstants& M = model.constants();
-    Solved S;
-    ASSERT_TRUE(solve(M, u, S));
+    SolvedPreset preset(planner, task);
+    ASSERT_TRUE(preset.solved);
+    const JumpModelConstants& M = preset.model.constants();
+    const Solved& S = preset.S;
     const StanceDynamics D(M, S);
     // The contact segments: [0, t1] on four wheels and (t1, t2] on the hind pair if two-step.
     struct Segment {
@@ -126,15 +137,10 @@ TEST(StanceDynamics, MomentumRateMatchesDifferencesAndTheBalanceMakesIt) {
   const JumpPlanner planner(robot, PlannerSettings{});
   for (const char* task : {"forward_hw", "forward", "vertical"}) {
     SCOPED_TRACE(task);
-    const Scenario sc = makePreset(planner, task);
-    PlanOptions opts;
-    opts.seed = 7;
-    opts.threads = 2;
-    const Eigen::VectorXd u = planner.plan(sc.task, sc.initial, opts).u;
-    const JumpModel model(robot, planner.settings(), sc.task, sc.initial);
-    const JumpModelConstants& M = model.constants();
-    Solved S;
-    ASSERT_TRUE(solve(M, u, S));
+    SolvedPreset preset(planner, task);
+    ASSERT_TRUE(preset.solved);
+    const JumpModelConstants& M = preset.model.constants();
+    const Solved& S = preset.S;
     ASSERT_FALSE(S.two_step);
     const StanceDynamics D(M, S);
     auto momentum = [&](double t) {
