@@ -172,7 +172,8 @@ bool solveStanceMomentum(const JumpModelConstants& M, Solved& S);
 // The unloading tail's angular impulse (S.tail_h) of a simultaneous take-off with its take-off
 // posture: S.tail_weight times the rate of the whole robot's angular momentum at t2, the moment
 // that the ground forces, balanced for the legs' motion, make there (docs/planner.md, "The
-// balanced stance"). Zero for a two-step take-off or without the tail.
+// balanced stance"); without settings.balanced_stance, the moment of the model's split. Zero
+// for a two-step take-off or without the tail.
 void addUnloadingTailMoment(const JumpModelConstants& M, Solved& S);
 // The nose-up angular momentum about the CoM of a take-off sample (legs, wheels' spin and
 // body) less the rigid body's I theta' [kg m^2/s].

@@ -56,8 +56,9 @@ void planRow(const JumpModelConstants& M, const Solved& S, const StanceDynamics&
     c_guess = smp.c;
     acc = stanceAccelerations(M, S, D, smp);
     // The pairs' normal forces that make the moment the motion needs (docs/planner.md, "The
-    // balanced stance"); a two-step take-off (the backflips) keeps the model's split.
-    if (!S.two_step) balancePairForces(M, acc, smp);
+    // balanced stance"); a two-step take-off (the backflips) keeps the model's split, as does
+    // every take-off without settings.balanced_stance.
+    if (!S.two_step && M.settings.balanced_stance) balancePairForces(M, acc, smp);
     out.s = smp.s;
     int i = 0;
     for (const PairSample* p : {&smp.hind, &smp.front}) {

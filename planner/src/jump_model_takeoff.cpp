@@ -384,6 +384,13 @@ bool solveStanceMomentum(const JumpModelConstants& M, Solved& S) {
 void addUnloadingTailMoment(const JumpModelConstants& M, Solved& S) {
   S.tail_h = 0.0;
   if (!(S.tail_weight > 0.0)) return;
+  if (!M.settings.balanced_stance) {
+    // The model's split: the moment of Eq. S-0 at t2.
+    const double t = S.t2;
+    S.tail_h = S.tail_weight *
+               (M.d_hind * S.Fz1(t) + (M.d_front - M.d_hind) * S.fFz1(t) + S.Z1(t) * S.Fx1(t));
+    return;
+  }
   const StanceAccelerations acc = stanceAccelerations(M, S, TakeoffAccelerations(S), S.to_sample);
   S.tail_h = S.tail_weight * momentumRate(M, S.to_sample, acc);
 }

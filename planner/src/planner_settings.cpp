@@ -334,6 +334,7 @@ PlannerSettings parse(const YAML::Node& root) {
               {"platform_margin_m", number(s.platform_margin_m)},
               {"actuator_torque_scale", number(s.actuator_torque_scale)},
               {"takeoff_unload_s", number(s.takeoff_unload_s)},
+              {"balanced_stance", [&](const YAML::Node& v) { s.balanced_stance = v.as<bool>(); }},
               {"actuator_model",
                choice(s.actuator_model, std::map<std::string, ActuatorModel>{
                                             {"envelope", ActuatorModel::Envelope},

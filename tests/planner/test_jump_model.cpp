@@ -1007,6 +1007,16 @@ TEST(PlannerSettings, UnloadingTailIsReadAndCheckedWithItsRange) {
               test::HasSubstr("physics.takeoff_unload_s must be in [0, 0.02]"));
 }
 
+TEST(PlannerSettings, BalancedStanceIsReadAndCheckedAsABoolean) {
+  EXPECT_TRUE(PlannerSettings().balanced_stance);
+  EXPECT_FALSE(
+      PlannerSettings::fromYamlString("physics: {balanced_stance: false}\n").balanced_stance);
+  EXPECT_THAT(test::errorOf<std::runtime_error>([] {
+                (void)PlannerSettings::fromYamlString("physics: {balanced_stance: 0.5}\n");
+              }),
+              test::HasSubstr("physics.balanced_stance"));
+}
+
 TEST(PlannerSettings, ContactChainIsReadAndCheckedByName) {
   EXPECT_EQ(PlannerSettings().contact_chain, ContactChain::FromStart);
   EXPECT_EQ(

@@ -122,9 +122,10 @@ nmpc::InverseDynamicsResult balancedRowInverseDynamics(const model::RobotModel& 
 
 /// The plan of a preset at a seed.
 planner::JumpPlan presetPlan(const model::RobotModel& robot, const char* task, bool stance_momentum,
-                             std::uint64_t seed) {
+                             std::uint64_t seed, bool balanced_stance = true) {
   planner::PlannerSettings settings;
   settings.stance_momentum = stance_momentum;
+  settings.balanced_stance = balanced_stance;
   const planner::JumpPlanner planner(robot, settings);
   const planner::Scenario sc = planner::makePreset(planner, task);
   planner::PlanOptions opts;
@@ -136,43 +137,49 @@ planner::JumpPlan presetPlan(const model::RobotModel& robot, const char* task, b
 TEST(TakeoffDynamics, StanceTorquesMatchTheInverseDynamics) {
   const auto robot = model::RobotModel::loadDefault();
   const nmpc::InverseDynamics id(robot);
-  for (const char* task : {"forward_hw", "forward", "vertical"}) {
-    SCOPED_TRACE(task);
-    const planner::JumpPlan plan = presetPlan(robot, task, false, 7);
-    const double dt = plan.dt;
-    double worst = 0.0, worst_unbalanced = 0.0;
-    int rows = 0;
-    for (int k = 2; k + 1 < plan.numSamples() && (k + 1) * dt < plan.t2; ++k) {
-      const double t = k * dt;
-      const planner::ForcePhase* ph = phaseAt(plan, t);
-      // Central differences inside one contact phase only.
-      if (!ph || phaseAt(plan, t - dt) != ph || phaseAt(plan, t + dt) != ph) continue;
-      const nmpc::InverseDynamicsResult out = balancedRowInverseDynamics(robot, id, plan, k, *ph);
-      const nmpc::InverseDynamicsResult unbalanced = rowInverseDynamics(robot, id, plan, k, *ph);
-      for (int j = 0; j < model::kNumJoints; ++j)
-        worst_unbalanced = std::max(worst_unbalanced, std::abs(plan.tau(k, j) - unbalanced.tau[j]));
-      const double tau = t - ph->t_start;
-      // Both pairs in the four-wheel phase; the hind pair alone after t1 (the lifted front
-      // pair brakes with its own feed-forward).
-      const bool front_down = std::abs(ph->front.fz(tau)) > 0.0;
-      for (const model::Leg leg : model::kLegs) {
-        if (model::isFront(leg) && !front_down) continue;
-        for (const model::JointKind kind : {model::JointKind::HAA, model::JointKind::HFE,
-                                            model::JointKind::KFE, model::JointKind::Wheel}) {
-          const int j = model::jointIndex(leg, kind);
-          worst = std::max(worst, std::abs(plan.tau(k, j) - out.tau[j]));
+  // With the balanced stance (the default), against the inverse dynamics with the base's
+  // residual moment split between the pairs; without it (the robot client's service), against
+  // the force phases' own split.
+  for (const bool balanced : {true, false})
+    for (const char* task : {"forward_hw", "forward", "vertical"}) {
+      SCOPED_TRACE(std::string(task) + (balanced ? " balanced" : " the model's split"));
+      const planner::JumpPlan plan = presetPlan(robot, task, false, 7, balanced);
+      const double dt = plan.dt;
+      double worst = 0.0, worst_other = 0.0;
+      int rows = 0;
+      for (int k = 2; k + 1 < plan.numSamples() && (k + 1) * dt < plan.t2; ++k) {
+        const double t = k * dt;
+        const planner::ForcePhase* ph = phaseAt(plan, t);
+        // Central differences inside one contact phase only.
+        if (!ph || phaseAt(plan, t - dt) != ph || phaseAt(plan, t + dt) != ph) continue;
+        const nmpc::InverseDynamicsResult bal = balancedRowInverseDynamics(robot, id, plan, k, *ph);
+        const nmpc::InverseDynamicsResult own = rowInverseDynamics(robot, id, plan, k, *ph);
+        const nmpc::InverseDynamicsResult& out = balanced ? bal : own;
+        const nmpc::InverseDynamicsResult& other = balanced ? own : bal;
+        const double tau = t - ph->t_start;
+        // Both pairs in the four-wheel phase; the hind pair alone after t1 (the lifted front
+        // pair brakes with its own feed-forward).
+        const bool front_down = std::abs(ph->front.fz(tau)) > 0.0;
+        for (const model::Leg leg : model::kLegs) {
+          if (model::isFront(leg) && !front_down) continue;
+          for (const model::JointKind kind : {model::JointKind::HAA, model::JointKind::HFE,
+                                              model::JointKind::KFE, model::JointKind::Wheel}) {
+            const int j = model::jointIndex(leg, kind);
+            worst = std::max(worst, std::abs(plan.tau(k, j) - out.tau[j]));
+            worst_other = std::max(worst_other, std::abs(plan.tau(k, j) - other.tau[j]));
+          }
         }
+        ++rows;
       }
-      ++rows;
+      std::cout << task << (balanced ? " (balanced)" : " (the model's split)") << ": " << rows
+                << " rows, largest difference " << worst << " Nm (with the other split "
+                << worst_other << ")\n";
+      EXPECT_GT(rows, 100);
+      // The difference steps of the two (1 ms in the planner, the plan's rows here) and the
+      // planner's planar link inertia (pitch only) leave up to 0.05 Nm (seed 7).
+      EXPECT_LT(worst, 0.1);
+      EXPECT_GT(worst_other, 1.0);  // the split matters at the push's end
     }
-    std::cout << task << ": " << rows << " rows, largest difference " << worst
-              << " Nm (with the force phases' own split " << worst_unbalanced << ")\n";
-    EXPECT_GT(rows, 100);
-    EXPECT_GT(worst_unbalanced, 1.0);  // the split matters at the push's end
-    // The difference steps of the two (1 ms in the planner, the plan's rows here) and the
-    // planner's planar link inertia (pitch only) leave up to 0.05 Nm (seed 7).
-    EXPECT_LT(worst, 0.1);
-  }
 }
 
 // What the plan's pitch leaves out (issue 22, session 17; docs/planner.md, "Where Simbody's

@@ -100,6 +100,15 @@ struct PlannerSettings {
   /// (session 16, 30 cases); 0: no tail at all, the flight starts from the push's state at t2
   /// (the model until session 13). A two-step take-off is not affected.
   double takeoff_unload_s = 0.003;
+  /// The balanced stance (`physics.balanced_stance`; docs/planner.md, "The balanced stance"):
+  /// a simultaneous take-off's export moves normal force between the pairs until they make
+  /// the moment the plan's motion needs (the rigid-body pitch leaves out the legs' momentum:
+  /// 30-36 Nm at t2), and the unloading tail takes that moment into the flight. false: the
+  /// model's own split in the feed-forward and the tail (the model until session 17), which
+  /// the robot client's service keeps (config/planner_settings.yaml: without the tail, the
+  /// balanced plans turn 0.03-0.06 rad more nose-up in Simbody). A two-step take-off keeps
+  /// the model's split either way.
+  bool balanced_stance = true;
 
   // --- postures (sagittal angles of every leg; HAA held at 0)
   double stand_hfe_rad = 1.0;  ///< take-off start posture used by the presets
