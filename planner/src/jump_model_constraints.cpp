@@ -220,7 +220,7 @@ bool sweepContact(const JumpModelConstants& M, const Solved& S, Sink& sink, Eval
       const int k = from_takeoff && e > 0 ? count - e : e;
       const bool phase2 = k >= n1;
       const double t = phase2 ? S.t1 + S.T2 * (k - n1) / (n2 - 1) : 0.0 + S.t1 * k / (n1 - 1);
-      if (from_takeoff && e == 1) c_guess = S.c_to;
+      if (from_takeoff && e == 1) c_guess = S.takeoff_sample.c;
       contactPosture(M, S, t, samples[k], phase2, c_guess, /*converge=*/false);
       c_guess = samples[k].c;
     }
@@ -335,7 +335,7 @@ void targetErrors(const JumpModelConstants& M, const Solved& S, Eigen::Vector4d&
   };
   // The base at take-off from the take-off posture; in flight the legs are taken at the
   // landing posture they are moving to.
-  out.takeoff = event(S.t2, to, S.c_to);
+  out.takeoff = event(S.t2, to, S.takeoff_sample.c);
   const double t_apex = std::max(to.vz / g, 0.0);
   std::array<Eigen::Vector2d, 2> q_apex;
   for (int pair = 0; pair < 2; ++pair)

@@ -26,7 +26,8 @@ void integrateFlightAttitude(const JumpModelConstants& M, Solved& S) {
   const int n = M.settings.samples_flight;
   S.n_flight = n;
   double i_to = 0.0, h_to = 0.0;
-  flightMomentum(M, S.q_to, S.qd_to, i_to, h_to);
+  const Sample& to = S.takeoff_sample;
+  flightMomentum(M, {to.hind.q, to.front.q}, {to.hind.qd, to.front.qd}, i_to, h_to);
   // (about +y; the unloading tail's impulse is nose-up positive)
   const double h_y = -i_to * S.takeoff.pitch_rate + h_to - S.tail_h;
   // The body's nose-up pitch rate at time t (about -y), and the legs' posture and CoM offset.
@@ -151,7 +152,8 @@ void flightMomentum(const JumpModelConstants& M, const std::array<Eigen::Vector2
 // will meet at touchdown, done by the end of the legs' landing extension.
 double flightWheelRate(const JumpModelConstants& M, const Solved& S, int pair, double t) {
   const double xi = (t - S.t2) / (M.settings.extend_end_fraction * S.Tf);
-  return S.wheel_to[pair] + (S.takeoff.vx / M.wheel_radius - S.wheel_to[pair]) * smoothstep(xi);
+  const double w0 = S.takeoff_sample.pair(pair).wheel_rate;
+  return w0 + (S.takeoff.vx / M.wheel_radius - w0) * smoothstep(xi);
 }
 
 void JointBrake::start(double q, double v, double decel_rad_s2, double torque_nm,
@@ -264,7 +266,8 @@ Eigen::Vector2d brakePosture(const std::array<JointBrake, 2>& b, double tau, Eig
 void solveFlight(const JumpModelConstants& M, Solved& S) {
   S.brake_end = 0.0;
   for (int pair = 0; pair < 2; ++pair) {
-    S.brake[pair] = startBrake(M, pair, S.q_to[pair], S.qd_to[pair]);
+    const PairSample& to = S.takeoff_sample.pair(pair);
+    S.brake[pair] = startBrake(M, pair, to.q, to.qd);
     for (const JointBrake& b : S.brake[pair]) S.brake_end = std::max(S.brake_end, b.t_stop);
     for (int j = 0; j < 2; ++j) S.tuck_duration[pair][j] = tuckDuration(M, S, pair, j);
   }

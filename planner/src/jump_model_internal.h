@@ -82,6 +82,7 @@ struct Sample {
   PlanarState s;
   Rot2 R;  // of s.pitch
   PairSample hind, front;
+  const PairSample& pair(int i) const { return i == 0 ? hind : front; }  ///< 0 hind, 1 front
   // What the posture half of a sample (contactPosture) leaves for its statics half: the phase,
   // the time in it, the poses without angles, the axles relative to the CoM (base frame) and
   // the hind axle's speed.
@@ -112,7 +113,7 @@ struct Solved {
   bool stance_momentum = false;
   double e_t1 = 0.0;  // E at t1 from the first pass (two-step: the front's t1 sample)
   Eigen::Vector2d c_front_t1 = Eigen::Vector2d::Zero();  // ... and its CoM offset
-  bool takeoff_posture = false;                          // q_to, c_to, qd_to and wheel_to are final
+  bool takeoff_posture = false;                          // takeoff_sample is final
   // `takeoff` is the flight's start: the push's state at t2 plus the unloading tail's
   // velocity change (addUnloadingTail); tail_h is the tail's nose-up angular impulse about the
   // CoM [kg m^2/s], which the flight's momentum adds: tail_weight [s] times the moment the
@@ -133,13 +134,10 @@ struct Solved {
   double brake_end = 0.0;
   // How long each pair's (HFE, KFE) then tuck (tuckDuration) [s].
   std::array<Eigen::Vector2d, 2> tuck_duration{};
-  // Take-off posture and wheel rates (hind, front), and the flight attitude table: pitch and
-  // pitch rate at t2 + Tf k / n_flight from the conservation of angular momentum with the legs
-  // moving (docs/planner.md, "Flight").
-  std::array<Eigen::Vector2d, 2> q_to{}, qd_to{};
-  Eigen::Vector2d c_to = Eigen::Vector2d::Zero();  // CoM in the base at take-off
-  std::array<double, 2> wheel_to{};
-  Sample to_sample;  // the converged contact sample at t2 they come from
+  // The converged contact sample at t2 (the take-off posture, joint and wheel rates, CoM in
+  // the base), and the flight attitude table: pitch and pitch rate at t2 + Tf k / n_flight from
+  // the conservation of angular momentum with the legs moving (docs/planner.md, "Flight").
+  Sample takeoff_sample;
   int n_flight = 0;
   std::array<double, 257> flight_pitch{}, flight_rate{};
   // The legs' (HFE, KFE) per pair and the CoM in the base at the same flight instants.
@@ -189,7 +187,7 @@ PlanarState ballisticG(const PlanarState& s, double dt, double g);
 
 // ---- stance (jump_model_stance.cpp)
 
-// The converged posture at take-off (q_to, c_to, qd_to, wheel_to) of a solved take-off.
+// The converged posture at take-off (S.takeoff_sample) of a solved take-off.
 // (Once per S: it returns at once if solveStanceMomentum() has already set it.)
 void solveTakeoffPosture(const JumpModelConstants& M, Solved& S);
 // The same from a converged sample at t2 of the final path.

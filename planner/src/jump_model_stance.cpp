@@ -37,7 +37,7 @@ void statics(const JumpModelConstants& M, const PlanarState& s, const Rot2& R, c
 
 }  // namespace
 
-// The converged posture at take-off (q_to, c_to, qd_to, wheel_to) of a solved take-off, which
+// The converged posture at take-off (S.takeoff_sample) of a solved take-off, which
 // the flight needs (and the FromTakeoff chain).
 void solveTakeoffPosture(const JumpModelConstants& M, Solved& S) {
   if (S.takeoff_posture) return;
@@ -48,11 +48,7 @@ void solveTakeoffPosture(const JumpModelConstants& M, Solved& S) {
 
 void setTakeoffPosture(const Sample& smp, Solved& S) {
   S.takeoff_posture = true;
-  S.q_to = {smp.hind.q, smp.front.q};
-  S.c_to = smp.c;
-  S.qd_to = {smp.hind.qd, smp.front.qd};
-  S.wheel_to = {smp.hind.wheel_rate, smp.front.wheel_rate};
-  S.to_sample = smp;
+  S.takeoff_sample = smp;
 }
 
 // The CoM in the base frame for the pairs' poses.

@@ -15,7 +15,7 @@ namespace wj::planner::detail {
 
 /// The acceleration polynomials of one solved take-off: what stanceAccelerations() needs
 /// beyond the sample. Cheap (derivatives of S's polynomials): the DE's evaluate builds one for
-/// the unloading tail's moment (takeoffMomentumRate).
+/// the unloading tail's moment (addUnloadingTailMoment).
 struct TakeoffAccelerations {
   Poly ax1, az1, aw1;  ///< CoM x, z and pitch accelerations, phase 1 (in t)
   Poly ax2, az2, aw2;  ///< ... phase 2 (in tau = t - t1)

@@ -363,8 +363,8 @@ bool solveStanceMomentum(const JumpModelConstants& M, Solved& S) {
       contactSample(M, S, S.t1, smp, /*phase2=*/false, M.c0, /*converge=*/true);
       setTakeoffPosture(smp, S);
     }
-    y[3] = stanceMomentumExcess(M, S.q_to, S.qd_to, S.wheel_to, S.takeoff.pitch_rate) - M.e0;
-    c_t1 = S.c_to;
+    y[3] = stanceMomentumExcess(M, S.takeoff_sample) - M.e0;
+    c_t1 = S.takeoff_sample.c;
   }
   for (int i = 1; i < 3; ++i) {
     t[i] = S.t1 * i / 3.0;
@@ -391,8 +391,9 @@ void addUnloadingTailMoment(const JumpModelConstants& M, Solved& S) {
                (M.d_hind * S.Fz1(t) + (M.d_front - M.d_hind) * S.fFz1(t) + S.Z1(t) * S.Fx1(t));
     return;
   }
-  const StanceAccelerations acc = stanceAccelerations(M, S, TakeoffAccelerations(S), S.to_sample);
-  S.tail_h = S.tail_weight * momentumRate(M, S.to_sample, acc);
+  const StanceAccelerations acc =
+      stanceAccelerations(M, S, TakeoffAccelerations(S), S.takeoff_sample);
+  S.tail_h = S.tail_weight * momentumRate(M, S.takeoff_sample, acc);
 }
 
 PlanarState stateAt(const JumpModelConstants& M, const Solved& S, double t, double g) {
