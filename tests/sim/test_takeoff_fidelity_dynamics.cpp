@@ -44,6 +44,14 @@ const planner::ForcePhase* phaseAt(const planner::JumpPlan& plan, double t) {
   return nullptr;
 }
 
+/// The phase holding the row at t and both its neighbours (the rows' central differences stay
+/// inside one contact phase), or null.
+const planner::ForcePhase* interiorPhaseAt(const planner::JumpPlan& plan, double t) {
+  const planner::ForcePhase* ph = phaseAt(plan, t);
+  const bool inside = ph && phaseAt(plan, t - plan.dt) == ph && phaseAt(plan, t + plan.dt) == ph;
+  return inside ? ph : nullptr;
+}
+
 /// The inverse dynamics of the plan's row k (inside the contact phase ph, with its neighbours):
 /// the joint torques and the base wrench that the plan's motion needs with its ground forces,
 /// velocities and accelerations by central differences of the rows.
@@ -85,21 +93,27 @@ nmpc::InverseDynamicsResult rowInverseDynamics(const model::RobotModel& robot,
   return out;
 }
 
+/// The nose-up (about -y) moment about the CoM in the base's row of row k's inverse dynamics:
+/// what the plan's motion needs beyond its ground forces. The base's force row is ~0 (the
+/// plan's CoM obeys its forces), so it is the moment about the base origin less c x f.
+double residualMoment(const model::RobotModel& robot, const planner::JumpPlan& plan, int k,
+                      const nmpc::InverseDynamicsResult& out) {
+  const Eigen::Vector3d c_B = robot.calcCompositeInertia(plan.q.row(k).transpose()).com;
+  return -(out.base_torque_B - c_B.cross(out.base_force_B)).y();
+}
+
 /// The same with the pairs' normal forces balanced (docs/planner.md, "The balanced stance"):
 /// the base's residual moment about the CoM of rowInverseDynamics (what the plan's motion needs
 /// beyond its force phases) carried by the pairs' normal forces, front + M / (x_F - x_H) and
 /// hind as much less (the total unchanged), the joints' torques changed by -J^T of that split
-/// (the inverse dynamics at rest without gravity). `moment` gets the residual [Nm, nose-up].
+/// (the inverse dynamics at rest without gravity).
 nmpc::InverseDynamicsResult balancedRowInverseDynamics(const model::RobotModel& robot,
                                                        const nmpc::InverseDynamics& id,
                                                        const planner::JumpPlan& plan, int k,
-                                                       const planner::ForcePhase& ph,
-                                                       double* moment = nullptr) {
+                                                       const planner::ForcePhase& ph) {
   nmpc::InverseDynamicsResult out = rowInverseDynamics(robot, id, plan, k, ph);
   const JointVec q = plan.q.row(k).transpose();
-  const Eigen::Vector3d c_B = robot.calcCompositeInertia(q).com;
-  const double residual = -(out.base_torque_B - c_B.cross(out.base_force_B)).y();  // nose-up
-  if (moment) *moment = residual;
+  const double residual = residualMoment(robot, plan, k, out);
   const Eigen::Matrix3d R =
       Eigen::AngleAxisd(-plan.centroidal[k].pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
   const auto X = robot.calcLinkPoses(q);
@@ -149,9 +163,8 @@ TEST(TakeoffDynamics, StanceTorquesMatchTheInverseDynamics) {
       int rows = 0;
       for (int k = 2; k + 1 < plan.numSamples() && (k + 1) * dt < plan.t2; ++k) {
         const double t = k * dt;
-        const planner::ForcePhase* ph = phaseAt(plan, t);
-        // Central differences inside one contact phase only.
-        if (!ph || phaseAt(plan, t - dt) != ph || phaseAt(plan, t + dt) != ph) continue;
+        const planner::ForcePhase* ph = interiorPhaseAt(plan, t);
+        if (!ph) continue;
         const nmpc::InverseDynamicsResult bal = balancedRowInverseDynamics(robot, id, plan, k, *ph);
         const nmpc::InverseDynamicsResult own = rowInverseDynamics(robot, id, plan, k, *ph);
         const nmpc::InverseDynamicsResult& out = balanced ? bal : own;
@@ -200,14 +213,9 @@ TEST(TakeoffDynamics, PitchModelImbalanceFromTheInverseDynamics) {
       double push = 0.0, last_20ms = 0.0, at_end = 0.0;
       for (int k = 2; k + 1 < plan.numSamples() && (k + 1) * dt < plan.t2; ++k) {
         const double t = k * dt;
-        const planner::ForcePhase* ph = phaseAt(plan, t);
-        if (!ph || phaseAt(plan, t - dt) != ph || phaseAt(plan, t + dt) != ph) continue;
-        const nmpc::InverseDynamicsResult out = rowInverseDynamics(robot, id, plan, k, *ph);
-        // Nose-up (about -y) moment about the CoM; the base's force row is ~0 (the plan's CoM
-        // obeys its forces), so the moment about the CoM is that about the base origin less
-        // c x f.
-        const Eigen::Vector3d c_B = robot.calcCompositeInertia(plan.q.row(k).transpose()).com;
-        at_end = -(out.base_torque_B - c_B.cross(out.base_force_B)).y();
+        const planner::ForcePhase* ph = interiorPhaseAt(plan, t);
+        if (!ph) continue;
+        at_end = residualMoment(robot, plan, k, rowInverseDynamics(robot, id, plan, k, *ph));
         push += at_end * dt;
         if (plan.t2 - t <= 0.02) last_20ms += at_end * dt;
       }
