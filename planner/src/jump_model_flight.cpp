@@ -31,11 +31,27 @@ void integrateFlightAttitude(const JumpModelConstants& M, Solved& S) {
   // (about +y; the unloading tail's impulse is nose-up positive)
   const double h_y = -i_to * S.takeoff.pitch_rate + h_to - S.tail_h;
   // The body's nose-up pitch rate at time t (about -y), and the legs' posture and CoM offset.
+  // While the legs hold a posture (tucked, or landing) the inertia and CoM offset are those of
+  // the last call with the same posture at rest, so they are kept instead of recomputed.
+  struct Held {
+    std::array<Eigen::Vector2d, 2> q;
+    double i_total = 0.0;
+    Eigen::Vector2d c;
+    bool valid = false;
+  } held;
   auto rate_at = [&](double t, std::array<Eigen::Vector2d, 2>& q, Eigen::Vector2d* c) {
     std::array<Eigen::Vector2d, 2> qd;
     for (int pair = 0; pair < 2; ++pair) q[pair] = flightPosture(M, S, pair, t, &qd[pair]);
+    const bool at_rest = qd[0].isZero(0.0) && qd[1].isZero(0.0);
+    if (at_rest && held.valid && q == held.q) {
+      if (c) *c = held.c;
+      return -h_y / held.i_total;
+    }
     double i_total = 0.0, h = 0.0;
-    flightMomentum(M, q, qd, i_total, h, c);
+    Eigen::Vector2d c_here;
+    flightMomentum(M, q, qd, i_total, h, &c_here);
+    if (c) *c = c_here;
+    if (at_rest) held = {q, i_total, c_here, true};
     return -(h_y - h) / i_total;
   };
   const double dt = S.Tf / n;
