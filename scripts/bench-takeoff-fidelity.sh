@@ -62,4 +62,20 @@ for task in dict.fromkeys(r["task"] for r in rows):
            "plan_imbalance": [i["dh"][0] - i["impulse"][0] for i in imp]}
     out[task] = {k: round(med(v), 3) for k, v in col.items()}
 print(json.dumps({"momentum_decomposition_medians": out}))
+# The touchdown pitch error (Simbody - plan) split, medians per preset: the flight momentum'"'"'s
+# error over Simbody'"'"'s pitch inertia to its touchdown ("momentum"), the attitude at Simbody'"'"'s
+# lift-off ("lift_off"), the plan'"'"'s pitch at Simbody'"'"'s touchdown instant less at its own
+# ("instant"), and what is left: the legs'"'"' motion in flight, Simbody'"'"'s tracking against the
+# plan'"'"'s ("flight_legs"; docs/planner.md, "The touchdown pitch'"'"'s two errors").
+out = {}
+for task in dict.fromkeys(r["task"] for r in rows):
+    rs = [r for r in rows if r["task"] == task]
+    err = [r["td_pitch"][1] - r["td_pitch"][0] for r in rs]
+    parts = {"error": err, "momentum": [r["td_pitch_from_dh"] for r in rs],
+             "lift_off": [r["lift_pitch_error"] for r in rs],
+             "instant": [r["td_instant_pitch"] for r in rs]}
+    parts["flight_legs"] = [e - m - l - i for e, m, l, i in
+                            zip(err, parts["momentum"], parts["lift_off"], parts["instant"])]
+    out[task] = {k: round(med(v), 3) for k, v in parts.items()}
+print(json.dumps({"touchdown_pitch_split_medians": out}))
 '

@@ -341,6 +341,12 @@ struct Fidelity {
   double vz_sim_t2 = 0.0, fz_sim_t2 = 0.0, tail_impulse_sim = 0.0;
   double apex_plan = 0.0, apex_sim = 0.0;  ///< CoM apex height [m]
   double td_pitch_plan = 0.0, td_pitch_sim = 0.0;
+  /// The part of the touchdown pitch error the flight momentum's error makes [rad].
+  double td_pitch_from_dh = 0.0;
+  /// Simbody's pitch at its lift-off less the plan's at that instant [rad].
+  double lift_pitch_error = 0.0;
+  /// The plan's pitch at Simbody's touchdown instant less at its own touchdown [rad].
+  double td_instant_pitch = 0.0;
   double td_dx_plan = 0.0, td_dx_sim = 0.0;
   bool passed = false;
 };
@@ -476,6 +482,29 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
     f.tail_impulse_sim = mass * (lift->v_WC.z() - at_t2->v_WC.z() + g * (lift->t - at_t2->t)) -
                          f.fz_sim_t2 * (p.takeoff.t - at_t2->t);
   }
+  // The touchdown pitch that the momentum gap alone makes: Simbody's flight momentum less the
+  // plan's, over Simbody's pitch inertia from its lift-off to its touchdown (the rest of the
+  // touchdown pitch error is the legs' flight motion and the attitude at lift-off).
+  if (lift) {
+    const auto& all = recorder.samples();
+    double prev_inv = 0.0;
+    for (std::size_t i = static_cast<std::size_t>(lift - all.data()); i < all.size(); ++i) {
+      if (all[i].t > m.touchdown.t + 1e-9) break;
+      const double inv = 1.0 / robot.calcCompositeInertia(toJointVec(all[i].q)).inertia_com(1, 1);
+      if (&all[i] != lift) f.td_pitch_from_dh += 0.5 * (prev_inv + inv) * (all[i].t - all[i - 1].t);
+      prev_inv = inv;
+    }
+    f.td_pitch_from_dh *= f.h_sim - f.h_plan_flight;
+    // ... and the attitude at Simbody's lift-off against the plan's row at that instant.
+    const Eigen::Matrix3d R = lift->q_WB.toRotationMatrix();
+    const int k = std::min(static_cast<int>(std::lround(lift->t / r.plan.dt)),
+                           static_cast<int>(r.plan.centroidal.size()) - 1);
+    f.lift_pitch_error = std::atan2(-R(0, 2), R(0, 0)) - r.plan.centroidal[k].pitch;
+    // ... and the touchdown's instant: the plan's pitch at Simbody's touchdown less at its own.
+    const int k_td = std::min(static_cast<int>(std::lround(m.touchdown.t / r.plan.dt)),
+                              static_cast<int>(r.plan.centroidal.size()) - 1);
+    f.td_instant_pitch = r.plan.centroidal[k_td].pitch - p.touchdown.state.pitch;
+  }
   f.apex_plan = p.apex.state.z;
   f.apex_sim = m.apex.state.z;
   f.td_pitch_plan = p.touchdown.state.pitch;
@@ -490,9 +519,11 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
             << ", \"f_t2\": [" << f.fx_t2 << ", " << f.fz_t2 << "], \"sim_t2\": [" << f.vz_sim_t2
             << ", " << f.fz_sim_t2 << ", " << f.tail_impulse_sim << "], \"apex\": [" << f.apex_plan
             << ", " << f.apex_sim << "], \"td_pitch\": [" << f.td_pitch_plan << ", "
-            << f.td_pitch_sim << "], \"td_dx\": [" << f.td_dx_plan << ", " << f.td_dx_sim
-            << "], \"h_plan_instant\": " << f.h_plan_instant << ", \"h_parts\": [" << parts_json
-            << "], \"h_impulse\": " << impulse_json
+            << f.td_pitch_sim << "], \"td_pitch_from_dh\": " << f.td_pitch_from_dh
+            << ", \"lift_pitch_error\": " << f.lift_pitch_error
+            << ", \"td_instant_pitch\": " << f.td_instant_pitch << ", \"td_dx\": [" << f.td_dx_plan
+            << ", " << f.td_dx_sim << "], \"h_plan_instant\": " << f.h_plan_instant
+            << ", \"h_parts\": [" << parts_json << "], \"h_impulse\": " << impulse_json
             << ", \"passed\": " << (f.passed ? "true" : "false") << "}" << std::endl;
   return f;
 }
