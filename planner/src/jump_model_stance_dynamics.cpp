@@ -193,12 +193,11 @@ double wheelAcceleration(const JumpModelConstants& M, const StanceAccelerations&
 double momentumRate(const JumpModelConstants& M, const Sample& smp,
                     const StanceAccelerations& acc) {
   constexpr double eps = 1e-5;  // [s]
-  const std::array<const PairSample*, 2> pairs{&smp.hind, &smp.front};
   auto h_at = [&](double e) {
     std::array<Eigen::Vector2d, 2> q, qd;
     std::array<double, 2> wheel{};
     for (int pair = 0; pair < 2; ++pair) {
-      const PairSample& p = *pairs[static_cast<std::size_t>(pair)];
+      const PairSample& p = smp.pair(pair);
       q[pair] = p.q + e * p.qd;
       qd[pair] = p.qd + e * acc.qdd[pair];
       // A lifted front pair's wheel holds its rate (contactStatics).

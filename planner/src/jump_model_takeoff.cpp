@@ -385,10 +385,8 @@ void addUnloadingTailMoment(const JumpModelConstants& M, Solved& S) {
   S.tail_h = 0.0;
   if (!(S.tail_weight > 0.0)) return;
   if (!M.settings.balanced_stance) {
-    // The model's split: the moment of Eq. S-0 at t2.
-    const double t = S.t2;
-    S.tail_h = S.tail_weight *
-               (M.d_hind * S.Fz1(t) + (M.d_front - M.d_hind) * S.fFz1(t) + S.Z1(t) * S.Fx1(t));
+    // The model's split: the moment of Eq. S-0 at t2, which the take-off sample's forces make.
+    S.tail_h = S.tail_weight * groundMoment(S.takeoff_sample);
     return;
   }
   const StanceAccelerations acc =
