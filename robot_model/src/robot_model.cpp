@@ -409,17 +409,24 @@ RobotModel RobotModel::withPeakTorque(JointKind kind, double peak_torque_nm) con
 }
 
 std::vector<Eigen::Isometry3d> RobotModel::calcLinkPoses(const Eigen::VectorXd& q) const {
+  std::vector<Eigen::Isometry3d> X_BL;
+  calcLinkPoses(q, X_BL);
+  return X_BL;
+}
+
+void RobotModel::calcLinkPoses(const Eigen::VectorXd& q,
+                               std::vector<Eigen::Isometry3d>& X_BL) const {
   if (q.size() != kNumJoints)
     throw std::invalid_argument("calcLinkPoses: q must have 16 entries, got " +
                                 std::to_string(q.size()));
-  std::vector<Eigen::Isometry3d> X_BL(links_.size(), Eigen::Isometry3d::Identity());
+  X_BL.resize(links_.size());
+  X_BL[0] = Eigen::Isometry3d::Identity();
   // Links were appended parent-before-child, so one forward sweep suffices.
   for (std::size_t i = 1; i < links_.size(); ++i) {
     const JointSpec& j = joints_[links_[i].parent_joint];
     const int qi = jointIndex(j.leg, j.kind);
     X_BL[i] = X_BL[j.parent_link] * j.X_PJ * jointMotion(j, q[qi]);
   }
-  return X_BL;
 }
 
 Inertia RobotModel::calcCompositeInertia(const Eigen::VectorXd& q) const {

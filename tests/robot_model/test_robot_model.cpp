@@ -124,6 +124,31 @@ TEST(RobotModel, CentralAngularMomentumClosedForm) {
   EXPECT_GT(calcCentralAngularMomentum(m, R, Eigen::Vector3d::Zero(), q, knee).norm(), 0.05);
 }
 
+// The control loop's calculator (buffers sized once) is the same arithmetic as the function,
+// and the poses it keeps are calcLinkPoses' at its q; calcLinkPoses into a sized vector as well.
+TEST(RobotModel, CentralMomentumCalculatorIsTheFunction) {
+  const RobotModel m = loadModel();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(kNumJoints), qd = Eigen::VectorXd::Zero(kNumJoints);
+  for (int j = 0; j < kNumJoints; ++j) {
+    q[j] = 0.1 * j - 0.7;
+    qd[j] = 3.0 - 0.4 * j;
+  }
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, 0.1).normalized()).toRotationMatrix();
+  const Eigen::Vector3d w(0.5, -4.0, 1.5);
+  CentralMomentum calculator(m);
+  for (int round = 0; round < 2; ++round)  // the second call reuses the buffers
+    EXPECT_EQ(calculator.calc(R, w, q, qd), calcCentralAngularMomentum(m, R, w, q, qd));
+  const std::vector<Eigen::Isometry3d> X = m.calcLinkPoses(q);
+  std::vector<Eigen::Isometry3d> into(3);  // resized to the links
+  m.calcLinkPoses(q, into);
+  ASSERT_EQ(into.size(), X.size());
+  for (std::size_t i = 0; i < X.size(); ++i) {
+    EXPECT_EQ(into[i].matrix(), X[i].matrix()) << i;
+    EXPECT_EQ(calculator.linkPoses()[i].matrix(), X[i].matrix()) << i;
+  }
+}
+
 TEST(RobotModel, ForwardKinematicsOfTheWheel) {
   const RobotModel m = loadModel();
   Eigen::VectorXd q = Eigen::VectorXd::Zero(kNumJoints);

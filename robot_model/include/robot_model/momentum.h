@@ -3,6 +3,8 @@
 /// (sim_jump --momentum-csv compares Simbody's with the plan's; docs/backflip.md).
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <vector>
 
 #include "robot_model/robot_model.h"
 
@@ -15,5 +17,24 @@ namespace wj::model {
 Eigen::Vector3d calcCentralAngularMomentum(const RobotModel& robot, const Eigen::Matrix3d& R_WB,
                                            const Eigen::Vector3d& w_WB, const Eigen::VectorXd& q,
                                            const Eigen::VectorXd& qd);
+
+/// calcCentralAngularMomentum without allocation, for a control loop: the buffers are sized
+/// once, at construction. Keeps a reference to `robot`. One per thread.
+class CentralMomentum {
+ public:
+  explicit CentralMomentum(const RobotModel& robot);
+
+  /// As calcCentralAngularMomentum (the same arithmetic); q and qd have 16 entries.
+  Eigen::Vector3d calc(const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& w_WB,
+                       const Eigen::VectorXd& q, const Eigen::VectorXd& qd);
+  /// Every link's pose in the base frame at the last calc()'s q (calcLinkPoses).
+  const std::vector<Eigen::Isometry3d>& linkPoses() const { return X_; }
+
+ private:
+  const RobotModel& robot_;
+  std::vector<Eigen::Isometry3d> X_, X_plus_, X_minus_;
+  std::vector<Eigen::Vector3d> p_, v_, w_;
+  Eigen::VectorXd q_step_;
+};
 
 }  // namespace wj::model

@@ -145,6 +145,9 @@ class RobotModel {
 
   /// Pose of every link in the base frame for joint positions q (16-vector, jointIndex order).
   std::vector<Eigen::Isometry3d> calcLinkPoses(const Eigen::VectorXd& q) const;
+  /// The same into `X_BL`, which allocates only if its size is not links().size() (a control
+  /// loop keeps it sized).
+  void calcLinkPoses(const Eigen::VectorXd& q, std::vector<Eigen::Isometry3d>& X_BL) const;
   /// Whole-robot inertia in the base frame at joint positions q: total mass, CoM and the
   /// rotational inertia about that CoM (parallel-axis sum over all links).
   Inertia calcCompositeInertia(const Eigen::VectorXd& q) const;
