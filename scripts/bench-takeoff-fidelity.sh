@@ -10,6 +10,8 @@
 #        [unloading tail: 1 | 0 (the planner's takeoff_unload_s = 0)]
 # WJ_FIDELITY_SPEED_LOOP=1: the take-off's wheels with session 16's law (the speed gain on the
 # whole error to the plan's no-slip rate; ExecutorSettings::takeoff_wheel_kd), for a before.
+# WJ_FIDELITY_OPEN_LOOP=1: session 19's executor (no take-off momentum feedback, flight gains
+# 80 / 2; ExecutorSettings::takeoff_momentum_kp, flight_kp), for a before.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}

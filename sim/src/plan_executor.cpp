@@ -45,6 +45,9 @@ void ExecutorSettings::validate() const {
   if (!(tyre_rolling_radius_ratio >= 0.8 && tyre_rolling_radius_ratio <= 1.2))
     throw std::invalid_argument(
         "executor settings: tyre_rolling_radius_ratio must be in [0.8, 1.2]");
+  requireNonNegative(takeoff_momentum_kp, "takeoff_momentum_kp");
+  requireNonNegative(takeoff_momentum_kd, "takeoff_momentum_kd");
+  requireNonNegative(takeoff_momentum_max_nm, "takeoff_momentum_max_nm");
   requireNonNegative(flight_kp, "flight_kp");
   requireNonNegative(flight_kd, "flight_kd");
   requirePositive(flight_blend_s, "flight_blend_s");
@@ -96,7 +99,12 @@ std::string checkPlan(const planner::JumpPlan& plan) {
 
 PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPlan& plan,
                            const ExecutorSettings& settings, double gravity_m_s2)
-    : model_(model), plan_(plan), settings_(settings) {
+    : model_(model),
+      plan_(plan),
+      settings_(settings),
+      momentum_(model),
+      q_meas_(Eigen::VectorXd::Zero(model::kNumJoints)),
+      qd_meas_(Eigen::VectorXd::Zero(model::kNumJoints)) {
   settings_.validate();
   if (const std::string problem = checkPlan(plan); !problem.empty())
     throw std::invalid_argument("PlanExecutor: " + problem);
@@ -137,6 +145,19 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
   flight_kp_ = hind_only_ ? e.two_step_flight_kp : e.flight_kp;
   flight_kd_ = hind_only_ ? e.two_step_flight_kd : e.flight_kd;
   landing_decel_ = hind_only_ ? e.two_step_landing_wheel_decel_m_s2 : e.landing_wheel_decel_m_s2;
+  // The plan's momentum, row by row, from its attitude (about y) and rates.
+  if (!hind_only_ && (e.takeoff_momentum_kp > 0.0 || e.takeoff_momentum_kd > 0.0)) {
+    h_plan_.resize(plan.numSamples());
+    for (int k = 0; k < plan.numSamples(); ++k) {
+      const planner::PlanarState& s = plan.centroidal[k];
+      const Eigen::Matrix3d R =
+          Eigen::AngleAxisd(-s.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
+      q_meas_ = plan.q.row(k).transpose();
+      qd_meas_ = plan.qd.row(k).transpose();
+      h_plan_[k] =
+          -momentum_.calc(R, Eigen::Vector3d(0.0, -s.pitch_rate, 0.0), q_meas_, qd_meas_).y();
+    }
+  }
 }
 
 PlanExecutor::SamplePoint PlanExecutor::samplePoint(double t) const {
@@ -194,6 +215,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
     case JumpPhase::Takeoff:
       sample(t, out);
       if (!hind_only_) applyTakeoffWheelLaw(t, sensors, out);
+      if (!h_plan_.empty()) addMomentumFeedback(t, sensors, R_WB, out);
       if (hind_only_ && t >= plan_.t1) {
         addHindPitchFeedback(t, R_WB * sensors.imu.omega_B, out);
         keepLiftedPairInRange(out);
@@ -288,6 +310,57 @@ void PlanExecutor::applyTakeoffWheelLaw(double t, const model::SensorData& senso
     // No feedback inside the band: the reference moves with the measured rate up to its edge.
     const double qd = sensors.joints[model::jointIndex(leg, model::JointKind::Wheel)].qd;
     c.qd_des = std::clamp(qd, c.qd_des - band, c.qd_des + band);
+  }
+}
+
+void PlanExecutor::addMomentumFeedback(double t, const model::SensorData& sensors,
+                                       const Eigen::Matrix3d& R_WB, model::JointCommands& out) {
+  const ExecutorSettings& e = settings_;
+  // The measured nose-up momentum: about the body's -y axis (the world's -y for the plan's
+  // attitude, which turns about y only), so a heading or roll leaves it the pitch's.
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    q_meas_[j] = sensors.joints[j].q;
+    qd_meas_[j] = sensors.joints[j].qd;
+  }
+  const Eigen::Vector3d H = momentum_.calc(R_WB, R_WB * sensors.imu.omega_B, q_meas_, qd_meas_);
+  const double h = -H.dot(R_WB.col(1));
+  const auto [k0, a] = samplePoint(t);
+  const double error = (1.0 - a) * h_plan_[k0] + a * h_plan_[k0 + 1] - h;
+  const double error_rate =
+      h_error_t_ >= 0.0 && t > h_error_t_ ? (error - h_error_) / (t - h_error_t_) : 0.0;
+  h_error_ = error;
+  h_error_t_ = t;
+  const double moment =
+      std::clamp(e.takeoff_momentum_kp * error + e.takeoff_momentum_kd * error_rate,
+                 -e.takeoff_momentum_max_nm, e.takeoff_momentum_max_nm);
+  // The axles in the world, relative to the base, and the lever between the pairs along the
+  // heading (the body's x in the horizontal plane).
+  const std::vector<Eigen::Isometry3d>& X = momentum_.linkPoses();
+  const auto axle = [&](model::Leg leg) -> Eigen::Vector3d {
+    return X[model_.joint(leg, model::JointKind::Wheel).child_link].translation();
+  };
+  Eigen::Vector3d heading = R_WB.col(0);
+  heading.z() = 0.0;
+  if (!(heading.norm() > 0.1)) return;
+  heading.normalize();
+  const double lever = 0.5 * heading.dot(R_WB * (axle(model::Leg::LF) + axle(model::Leg::RF) -
+                                                 axle(model::Leg::LH) - axle(model::Leg::RH)));
+  if (!(lever > 0.05)) return;
+  // Per wheel: df up on the front pair, df down on the hind (M = 2 df x lever). Each
+  // leg's joints give the wheel's share as tau = -J^T F, J its axle's Jacobian (a vertical
+  // force under the axle has no moment about it), a revolute joint's column a x (p - o).
+  const double df = moment / (2.0 * lever);
+  for (const model::Leg leg : model::kLegs) {
+    const bool front = leg == model::Leg::LF || leg == model::Leg::RF;
+    const Eigen::Vector3d F_B = R_WB.transpose() * Eigen::Vector3d(0.0, 0.0, front ? df : -df);
+    const Eigen::Vector3d p = axle(leg);
+    for (const model::JointKind kind :
+         {model::JointKind::HAA, model::JointKind::HFE, model::JointKind::KFE}) {
+      const model::JointSpec& spec = model_.joint(leg, kind);
+      const Eigen::Isometry3d& X_j = X[spec.child_link];
+      const Eigen::Vector3d column = (X_j.linear() * spec.axis).cross(p - X_j.translation());
+      out[model::jointIndex(leg, kind)].tau_ff -= column.dot(F_B);
+    }
   }
 }
 

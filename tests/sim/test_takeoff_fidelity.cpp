@@ -375,7 +375,8 @@ bool stanceMomentumFromEnv() {
 
 /// WJ_FIDELITY_SPEED_LOOP=1: the take-off's wheels with session 16's law (the plan's torque
 /// plus takeoff_wheel_kd on the whole error to the plan's no-slip rate), for the before/after
-/// comparison of the bench grid.
+/// comparison of the bench grid. WJ_FIDELITY_OPEN_LOOP=1: session 19's executor, without the
+/// take-off's momentum feedback and with the flight gains 80 / 2.
 VerifierSettings verifierSettings() {
   VerifierSettings s;
   const char* v = std::getenv("WJ_FIDELITY_SPEED_LOOP");
@@ -383,6 +384,13 @@ VerifierSettings verifierSettings() {
     s.executor.takeoff_wheel_slip_band_m_s = 0.0;
     s.executor.tyre_slip_stiffness_n_s_m = std::numeric_limits<double>::max();
     s.executor.tyre_rolling_radius_ratio = 1.0;
+  }
+  const char* open = std::getenv("WJ_FIDELITY_OPEN_LOOP");
+  if (open && std::string(open) == "1") {
+    s.executor.takeoff_momentum_kp = 0.0;
+    s.executor.takeoff_momentum_kd = 0.0;
+    s.executor.flight_kp = 80.0;
+    s.executor.flight_kd = 2.0;
   }
   return s;
 }
@@ -405,6 +413,8 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
   f.task = task;
   f.v0 = sc.initial.v0;
   f.passed = v.passed;
+  for (const std::string& why : v.reasons)
+    std::cerr << task << " seed " << seed << " failed verification: " << why << "\n";
   const planner::JumpOutcome& p = r.plan.predicted;
   const planner::JumpOutcome& m = v.measured;
   f.t2_plan = p.takeoff.t;

@@ -173,6 +173,9 @@ sim::ExecutorSettings parseExecutor(StrictYamlMap m) {
   e.takeoff_wheel_slip_band_m_s = m.number("takeoff_wheel_slip_band_m_s");
   e.tyre_slip_stiffness_n_s_m = m.number("tyre_slip_stiffness_n_s_m");
   e.tyre_rolling_radius_ratio = m.number("tyre_rolling_radius_ratio");
+  e.takeoff_momentum_kp = m.number("takeoff_momentum_kp");
+  e.takeoff_momentum_kd = m.number("takeoff_momentum_kd");
+  e.takeoff_momentum_max_nm = m.number("takeoff_momentum_max_nm");
   e.flight_kp = m.number("flight_kp");
   e.flight_kd = m.number("flight_kd");
   e.flight_blend_s = m.number("flight_blend_s");

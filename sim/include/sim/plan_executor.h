@@ -7,8 +7,10 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "planner/jump_plan.h"
+#include "robot_model/momentum.h"
 #include "robot_model/robot_interface.h"
 #include "robot_model/robot_model.h"
 #include "sim/statics.h"
@@ -46,6 +48,19 @@ struct ExecutorSettings {
   /// torques close the body's pitch (hind_pitch_kp), and with this law Simbody's flips
   /// rotated 0.1-0.2 rad less by their touchdown.
   double takeoff_wheel_kd = 1.0;
+  /// Centroidal momentum feedback in a four-wheel take-off (issue 22; docs/planner.md, "The
+  /// take-off's momentum feedback"). The whole robot's nose-up angular momentum about its CoM,
+  /// H (from the IMU's attitude and rate and the joints' positions and rates, through
+  /// model::CentralMomentum), is driven to the plan's by a moment
+  /// M = kp e + kd e', e = H_plan - H (e' from one period to the next), clamped to
+  /// +-takeoff_momentum_max_nm. The legs put M on the ground as normal force moved from the
+  /// hind pair to the front one (each leg's HAA, HFE and KFE torques change by -J^T of its
+  /// wheel's share; the total force is unchanged). Without it Simbody's compliant contact and
+  /// the joints' PD leave the body 0.03-0.09 kg m^2/s more nose-down than the plan by t2.
+  /// Both gains 0: off [1/s].
+  double takeoff_momentum_kp = 150.0;
+  double takeoff_momentum_kd = 0.5;       ///< see takeoff_momentum_kp [-]
+  double takeoff_momentum_max_nm = 40.0;  ///< see takeoff_momentum_kp [Nm]
   /// Ground-speed error (wheel rate x radius) left to the plan's torque in the take-off [m/s].
   double takeoff_wheel_slip_band_m_s = 0.03;
   /// The tyre's longitudinal slip stiffness per wheel: it carries a traction F while its
@@ -60,8 +75,13 @@ struct ExecutorSettings {
   /// spin they rolled with at take-off (ground speed / r, which flight conserves) and trade no
   /// angular momentum with the body; a gain towards a joint speed would tilt the body.
   double flight_wheel_kd = 0.0;
-  double flight_kp = 80.0;  ///< leg stiffness towards q_landing in flight [Nm/rad]
-  double flight_kd = 2.0;   ///< leg damping in flight [Nm s/rad]
+  /// Leg stiffness towards the plan's flight references [Nm/rad]. The tuck and the landing
+  /// extension have no feed-forward (the plan's flight torques are the lift-off braking's), so
+  /// this gain sets how far the legs lag them: at 80 / 2 the lag turned the body 0.015-0.044
+  /// rad nose-up of the plan by touchdown, at 300 / 6 0.005-0.016 (docs/planner.md, "The
+  /// take-off's momentum feedback").
+  double flight_kp = 300.0;
+  double flight_kd = 6.0;  ///< leg damping in flight [Nm s/rad]
   /// Plans without flight samples: quintic blend from the take-off state to q_landing [s].
   double flight_blend_s = 0.12;
   double joint_limit_margin_rad = 0.05;  ///< flight references stay this far inside the range
@@ -204,6 +224,9 @@ class PlanExecutor {
   void addLandingPitchBrake(const Eigen::Vector3d& omega_W, model::JointCommands& out) const;
   // Adds `offset` to every leg's HFE reference, inside the joint range.
   void addHfeOffset(double offset, model::JointCommands& out) const;
+  // Adds the take-off's momentum feedback (takeoff_momentum_kp) to the legs' torques.
+  void addMomentumFeedback(double t, const model::SensorData& sensors, const Eigen::Matrix3d& R_WB,
+                           model::JointCommands& out);
   // Flight references of a plan without flight samples (positions and speeds only).
   void blendToLanding(double t, model::JointCommands& out) const;
 
@@ -211,6 +234,13 @@ class PlanExecutor {
   const planner::JumpPlan& plan_;
   ExecutorSettings settings_;
   JointVector landing_feedforward_ = JointVector::Zero();
+  // The momentum feedback: the plan's nose-up H at each row (empty when off), the
+  // calculator and its inputs (sized once), and the last error and its time.
+  std::vector<double> h_plan_;
+  model::CentralMomentum momentum_;
+  Eigen::VectorXd q_meas_, qd_meas_;
+  double h_error_ = 0.0;
+  double h_error_t_ = -1.0;   // < 0: no error yet
   double wheel_speed_ = 0.0;  // wheel joint speed reference after take-off [rad/s]
   JointVector q_flight_start_ = JointVector::Zero();   // measured at t2
   JointVector qd_flight_start_ = JointVector::Zero();  // measured at t2

@@ -112,6 +112,14 @@ TEST(ClientSettings, PlanRetriesTheWheelLawAndTheLandingFeedbacksAreReadAndBound
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(tyre, "x.yaml"); }),
       test::HasSubstr("tyre_rolling_radius_ratio must be in [0.8, 1.2]"));
+  // The take-off's momentum feedback is read (off in the shipped file) and checked by name.
+  EXPECT_DOUBLE_EQ(s.executor.takeoff_momentum_kp, 0.0);
+  EXPECT_DOUBLE_EQ(s.executor.takeoff_momentum_max_nm, 40.0);
+  const std::string momentum =
+      replace(shippedConfig(), "takeoff_momentum_kd: 0.0", "takeoff_momentum_kd: -1.0");
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(momentum, "x.yaml"); }),
+      test::HasSubstr("takeoff_momentum_kd"));
   const std::string half =
       replace(shippedConfig(), "touchdown_pitch_placement: 1.0", "touchdown_pitch_placement: 1.5");
   EXPECT_THAT(
