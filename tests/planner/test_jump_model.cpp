@@ -704,9 +704,11 @@ TEST(JumpPlanner, WarmStartFromTheNeighbouringBinIsFeasibleInAThirdOfAColdSearch
   // evaluations; 16 with session 15's plans, whose first wheel switched between the pairs at
   // the level touchdown, 11 before them); from the Ipopt-polished one, which its stall rule
   // leaves further inside, 2 (docs/planner.md).
-  const int cold_evals = planner.plan(b.task, b.initial).de.evaluations;
-  std::printf("warm start: %d evaluations (%d generations), cold %d\n", rb.de.evaluations,
-              rb.de.evaluations / planner.settings().de.population_size, cold_evals);
+  const long cold_evals = planner.plan(b.task, b.initial).de.evaluations;
+  std::printf("warm start: %ld evaluations (%ld generations), cold %ld\n",
+              static_cast<long>(rb.de.evaluations),
+              static_cast<long>(rb.de.evaluations / planner.settings().de.population_size),
+              cold_evals);
   EXPECT_LE(rb.de.evaluations, 12 * planner.settings().de.population_size);
   EXPECT_LT(3 * rb.de.evaluations, cold_evals);
   // The same seed and warm start give the same plan.
