@@ -12,6 +12,9 @@
 # whole error to the plan's no-slip rate; ExecutorSettings::takeoff_wheel_kd), for a before.
 # WJ_FIDELITY_OPEN_LOOP=1: session 19's executor (no take-off momentum feedback, flight gains
 # 80 / 2; ExecutorSettings::takeoff_momentum_kp, flight_kp), for a before.
+# WJ_FIDELITY_REFERENCE_INTEGRATOR=1: Simbody with its reference integrator (Runge-Kutta-Merson
+# at 1e-5) in place of the verifier's 1 ms semi-explicit Euler step; the difference between
+# the two runs is the simulation's own error on each figure.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}

@@ -377,8 +377,18 @@ bool stanceMomentumFromEnv() {
 /// plus takeoff_wheel_kd on the whole error to the plan's no-slip rate), for the before/after
 /// comparison of the bench grid. WJ_FIDELITY_OPEN_LOOP=1: session 19's executor, without the
 /// take-off's momentum feedback and with the flight gains 80 / 2.
+/// WJ_FIDELITY_REFERENCE_INTEGRATOR=1: Simbody with the reference integrator
+/// (VerifierSettings::reference(), Runge-Kutta-Merson at 1e-5) instead of the verifier's 1 ms
+/// semi-explicit Euler step: the simulation's own discretization error on the lift-off state
+/// (docs/planner.md, "What the simulation itself resolves"). WJ_FIDELITY_TRANSITION_VELOCITY:
+/// the friction law's transition speed [m/s] in place of the default 0.2 (below 0.2 with the
+/// reference integrator only: the 1 ms step chatters, docs/sim.md "Integrator").
 VerifierSettings verifierSettings() {
-  VerifierSettings s;
+  const char* reference = std::getenv("WJ_FIDELITY_REFERENCE_INTEGRATOR");
+  VerifierSettings s = reference && std::string(reference) == "1" ? VerifierSettings::reference()
+                                                                  : VerifierSettings{};
+  if (const char* vt = std::getenv("WJ_FIDELITY_TRANSITION_VELOCITY"))
+    s.sim.contact.transition_velocity_m_s = std::stod(vt);
   const char* v = std::getenv("WJ_FIDELITY_SPEED_LOOP");
   if (v && std::string(v) == "1") {
     s.executor.takeoff_wheel_slip_band_m_s = 0.0;
