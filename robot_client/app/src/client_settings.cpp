@@ -245,6 +245,7 @@ void ClientSettings::validate() const {
   inRange(safety.stopped_speed_m_s, 0.001, 1.0, "safety.stopped_speed_m_s");
   inRange(contact.force_threshold_n, 1.0, 500.0, "contact.force_threshold_n");
   inRange(contact.max_wheel_clearance_m, 0.001, 0.2, "contact.max_wheel_clearance_m");
+  inRange(contact.max_rise_speed_m_s, 0.05, 5.0, "contact.max_rise_speed_m_s");
   inRange(contact.settle_s, 0.0, 1.0, "contact.settle_s");
   inRange(contact.traction_mu, 0.05, 2.0, "contact.traction_mu");
   inRange(planner.deadline_s, 0.01, 60.0, "planner.deadline_s");
@@ -298,6 +299,7 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     StrictYamlMap m = root.map("contact");
     s.contact.force_threshold_n = m.number("force_threshold_n");
     s.contact.max_wheel_clearance_m = m.number("max_wheel_clearance_m");
+    s.contact.max_rise_speed_m_s = m.number("max_rise_speed_m_s");
     s.contact.settle_s = m.number("settle_s");
     s.contact.traction_mu = m.number("traction_mu");
     m.finish();

@@ -105,17 +105,21 @@ void ControlLoop::updateContacts() {
     }
     contact_force_[leg] = fz;
     // The torque-based force also reads the legs' own inertia (a swing in flight looks like a
-    // load), so a wheel counts as touching only if it is also near the ground by the
-    // estimator's state (its flight prediction is exact to millimetres, docs/estimator.md).
+    // load), so a wheel counts as touching only if it is also near the ground and not rising
+    // away from it by the estimator's state (its flight prediction is exact to millimetres,
+    // docs/estimator.md): a tuck swings the wheels up at metres per second.
     Eigen::Vector3d p_BW, v_rel, axis, w_rel;
     estimator_.calcWheelKinematics(l, sensors_.joints, p_BW, v_rel, axis, w_rel);
     const estimation::EstimatedState& s = estimator_.state();
-    const Eigen::Vector3d p_WW = s.p_WB + s.q_WB * p_BW;  // the wheel's centre
+    const Eigen::Vector3d r_W = s.q_WB * p_BW;
+    const Eigen::Vector3d p_WW = s.p_WB + r_W;  // the wheel's centre
+    const double rise = (s.v_WB + s.omega_W.cross(r_W) + s.q_WB * v_rel).z();
     const double ground = groundHeightAt(p_WW.x());
     over_platform = over_platform && ground > 0.0;
     const double clearance = p_WW.z() - robot_.wheelRadius() - ground;
     contact_[leg] = fz > settings_.contact.force_threshold_n &&
-                    clearance < settings_.contact.max_wheel_clearance_m;
+                    clearance < settings_.contact.max_wheel_clearance_m &&
+                    rise < settings_.contact.max_rise_speed_m_s;
     // A wheel driven past its traction slips (docs/estimator.md, "Slipping wheels"): its
     // rolling constraint would pull the estimate along with the slip.
     const double wheel_tau = sensors_.joints[model::jointIndex(l, model::JointKind::Wheel)].tau;

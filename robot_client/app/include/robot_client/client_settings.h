@@ -43,6 +43,11 @@ struct ContactSettings {
   double force_threshold_n = 25.0;  ///< normal force above which a wheel is on the ground [N]
   /// ... and only if the estimated wheel bottom is at most this far above the ground [m].
   double max_wheel_clearance_m = 0.03;
+  /// ... and only if the wheel centre does not rise faster than this in the world by the
+  /// estimator's state [m/s]. A leg tucking in flight swings its wheel up at 2-4 m/s and loads
+  /// its joints like a ground force; passing 2-3 cm over a platform's edge that counted as a
+  /// touchdown (docs/robot-client.md, "Contact").
+  double max_rise_speed_m_s = 0.5;
   /// In a jump, a wheel's rolling constraint feeds the estimator only after its contact has
   /// lasted this long (impact and spin-up slip) [s].
   double settle_s = 0.05;
