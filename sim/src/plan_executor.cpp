@@ -389,9 +389,13 @@ double PlanExecutor::calcPlacementOffset(double t) const {
   const double down = settings_.touchdown_placement_band_down_rad;
   const double error = raw > up ? raw - up : raw < -down ? raw + down : 0.0;
   const double max = settings_.touchdown_placement_max_rad;
-  const double ramp_end = std::max(t_apex_, plan_.t3 - settings_.touchdown_placement_lead_s);
-  const double w =
-      ramp_end > t_apex_ ? std::clamp((t - t_apex_) / (ramp_end - t_apex_), 0.0, 1.0) : 1.0;
+  // The ramp starts at the plan's apex and ends touchdown_placement_lead_s before the plan's
+  // touchdown, or at the touchdown when the apex comes later than that (a platform: 35 ms
+  // between them); before the apex the offset is zero.
+  double ramp_end = plan_.t3 - settings_.touchdown_placement_lead_s;
+  if (ramp_end <= t_apex_) ramp_end = plan_.t3;
+  const double w = ramp_end > t_apex_ ? std::clamp((t - t_apex_) / (ramp_end - t_apex_), 0.0, 1.0)
+                                      : (t >= t_apex_ ? 1.0 : 0.0);
   return w * std::clamp(settings_.touchdown_pitch_placement * error, -max, max);
 }
 

@@ -114,6 +114,33 @@ TEST(LandingPlacement, LegsSwingBackByTheNoseUpErrorInTheDescentOnly) {
   }
 }
 
+// A platform's plan: its apex (0.47 s) comes later than touchdown_placement_lead_s before
+// its touchdown (0.45 s). Until the apex the legs follow the plan (the offset was whole from
+// the lift-off before session 21); from it the offset ramps in to be whole at the touchdown.
+TEST(LandingPlacement, ALateApexRampsTheOffsetToTheTouchdown) {
+  const model::RobotModel robot = loadRobot();
+  planner::JumpPlan plan = makePlan();
+  for (int k = 0; k < plan.numSamples(); ++k)
+    plan.centroidal[k].vz = k * plan.dt < 0.47 ? 1.0 : -1.0;
+  const double error = 0.2;
+  {
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    EXPECT_NEAR(hfe(flyTo(ex, 0.3, kPlanPitch + error), Leg::LF), kHfe, 1e-12);
+  }
+  {
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    EXPECT_NEAR(hfe(flyTo(ex, 0.46, kPlanPitch + error), Leg::LF), kHfe, 1e-12);
+  }
+  {
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    EXPECT_NEAR(hfe(flyTo(ex, 0.485, kPlanPitch + error), Leg::RH), kHfe + 0.5 * error, 1e-9);
+  }
+  {
+    PlanExecutor ex(robot, plan, placement(1.0), 9.81);
+    EXPECT_NEAR(hfe(flyTo(ex, 0.5, kPlanPitch + error), Leg::RF), kHfe + error, 1e-9);
+  }
+}
+
 TEST(LandingPlacement, BandAndClampBoundTheOffset) {
   const model::RobotModel robot = loadRobot();
   const planner::JumpPlan plan = makePlan();

@@ -126,9 +126,10 @@ struct ExecutorSettings {
   /// Leg placement for the measured pitch: in the descent every leg's HFE reference is offset
   /// by this fraction of the body pitch error (measured minus planned, nose-up positive), so
   /// the legs meet the ground at the plan's angle in the world whatever the body's pitch. It
-  /// ramps in from the plan's apex to touchdown_placement_lead_s before touchdown (before the
-  /// apex the legs pass the obstacle as planned); the offset at touchdown is held through the
-  /// landing and fades with the hand-over blend. A
+  /// ramps in from the plan's apex to touchdown_placement_lead_s before touchdown, or to the
+  /// touchdown when the apex is later than that (before the apex the legs pass the obstacle
+  /// as planned); the offset at touchdown is held through the landing and fades with the
+  /// hand-over blend. A
   /// robot that touches down 0.2 rad more nose-up than planned (a payload forward) otherwise
   /// lands its hind knees on the ground (docs/robust.md). 0: off (the plan's posture).
   double touchdown_pitch_placement = 0.0;
