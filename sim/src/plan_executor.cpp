@@ -145,10 +145,11 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
   flight_kp_ = hind_only_ ? e.two_step_flight_kp : e.flight_kp;
   flight_kd_ = hind_only_ ? e.two_step_flight_kd : e.flight_kd;
   landing_decel_ = hind_only_ ? e.two_step_landing_wheel_decel_m_s2 : e.landing_wheel_decel_m_s2;
-  // The plan's momentum, row by row, from its attitude (about y) and rates.
+  // The plan's momentum, row by row, from its attitude (about y) and rates: the take-off's
+  // rows, up to the one after t2 (the feedback interpolates between rows k and k + 1, t < t2).
   if (!hind_only_ && (e.takeoff_momentum_kp > 0.0 || e.takeoff_momentum_kd > 0.0)) {
-    h_plan_.resize(plan.numSamples());
-    for (int k = 0; k < plan.numSamples(); ++k) {
+    h_plan_.resize(std::min(plan.numSamples(), static_cast<int>(plan.t2 / plan.dt) + 2));
+    for (int k = 0; k < static_cast<int>(h_plan_.size()); ++k) {
       const planner::PlanarState& s = plan.centroidal[k];
       const Eigen::Matrix3d R =
           Eigen::AngleAxisd(-s.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
@@ -351,8 +352,8 @@ void PlanExecutor::addMomentumFeedback(double t, const model::SensorData& sensor
   // force under the axle has no moment about it), a revolute joint's column a x (p - o).
   const double df = moment / (2.0 * lever);
   for (const model::Leg leg : model::kLegs) {
-    const bool front = leg == model::Leg::LF || leg == model::Leg::RF;
-    const Eigen::Vector3d F_B = R_WB.transpose() * Eigen::Vector3d(0.0, 0.0, front ? df : -df);
+    const Eigen::Vector3d F_B =
+        R_WB.transpose() * Eigen::Vector3d(0.0, 0.0, model::isFront(leg) ? df : -df);
     const Eigen::Vector3d p = axle(leg);
     for (const model::JointKind kind :
          {model::JointKind::HAA, model::JointKind::HFE, model::JointKind::KFE}) {
