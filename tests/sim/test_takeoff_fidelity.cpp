@@ -519,7 +519,7 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
     const Eigen::Matrix3d R = lift->q_WB.toRotationMatrix();
     const int k = std::min(static_cast<int>(std::lround(lift->t / r.plan.dt)),
                            static_cast<int>(r.plan.centroidal.size()) - 1);
-    f.lift_pitch_error = std::atan2(-R(0, 2), R(0, 0)) - r.plan.centroidal[k].pitch;
+    f.lift_pitch_error = calcUnwrappedPitch(R, 0.0) - r.plan.centroidal[k].pitch;
     // ... and the touchdown's instant: the plan's pitch at Simbody's touchdown less at its own.
     const int k_td = std::min(static_cast<int>(std::lround(m.touchdown.t / r.plan.dt)),
                               static_cast<int>(r.plan.centroidal.size()) - 1);
