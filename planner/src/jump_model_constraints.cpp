@@ -161,13 +161,13 @@ void emitContact(const JumpModelConstants& M, const Sample& smp, Sink& sink) {
          base + 1);
     sink(ConstraintClass::JointTorque, M.env_kfe.peak_torque_nm - std::abs(p.tau[1]), smp.t,
          base + 2);
-    sink(ConstraintClass::ActuatorEnvelope, M.env_haa.torqueMargin(tau_haa, 0.0), smp.t, base);
-    sink(ConstraintClass::ActuatorEnvelope, M.env_hfe.torqueMargin(p.tau[0], p.qd[0]), smp.t,
+    sink(ConstraintClass::ActuatorEnvelope, M.env_haa.drivingMargin(tau_haa, 0.0), smp.t, base);
+    sink(ConstraintClass::ActuatorEnvelope, M.env_hfe.drivingMargin(p.tau[0], p.qd[0]), smp.t,
          base + 1);
-    sink(ConstraintClass::ActuatorEnvelope, M.env_kfe.torqueMargin(p.tau[1], p.qd[1]), smp.t,
+    sink(ConstraintClass::ActuatorEnvelope, M.env_kfe.drivingMargin(p.tau[1], p.qd[1]), smp.t,
          base + 2);
-    sink(ConstraintClass::WheelTraction, M.env_wheel.torqueMargin(p.wheel_tau, p.wheel_rate), smp.t,
-         base + 3);
+    sink(ConstraintClass::WheelTraction, M.env_wheel.drivingMargin(p.wheel_tau, p.wheel_rate),
+         smp.t, base + 3);
     sink(ConstraintClass::WheelSpeed, M.env_wheel.speedMargin(p.wheel_rate), smp.t, base + 3);
   }
   emitBody(M, smp.t, smp.s, smp.R, smp.c, &smp, nullptr, sink);

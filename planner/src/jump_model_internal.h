@@ -39,7 +39,8 @@ inline constexpr double kFlipHindHipClearance = 0.2;
 /// brake"): at `decel` up to the drive's corner speed and above it at the same share of the
 /// envelope's torque, which falls linearly to zero at the no-load speed, so the speed there
 /// falls exponentially; below it the torque falls along a cubic to zero at rest, with no kink
-/// at the corner speed nor at rest (a C1 feed-forward).
+/// at the corner speed nor at rest (a C1 feed-forward). The driving envelope's, whatever the
+/// drive's braking limit: the planner's conservative assumption (docs/planner.md).
 struct JointBrake {
   double q0 = 0.0, sign = 0.0;
   double w0 = 0.0, w_nl = 0.0, lambda = 0.0;  // start speed (abs.), no-load speed, 1/s

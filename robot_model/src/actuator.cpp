@@ -13,7 +13,16 @@ double ActuatorEnvelope::torqueLimit(double speed_rad_s) const {
   return peak_torque_nm * (no_load_speed_rad_s - w) / (no_load_speed_rad_s - corner_speed_rad_s);
 }
 
+double ActuatorEnvelope::torqueLimit(double torque_nm, double speed_rad_s) const {
+  const bool against_motion = torque_nm * speed_rad_s < 0.0;
+  return against_motion && braking == Braking::Peak ? peak_torque_nm : torqueLimit(speed_rad_s);
+}
+
 double ActuatorEnvelope::torqueMargin(double torque_nm, double speed_rad_s) const {
+  return torqueLimit(torque_nm, speed_rad_s) - std::abs(torque_nm);
+}
+
+double ActuatorEnvelope::drivingMargin(double torque_nm, double speed_rad_s) const {
   return torqueLimit(speed_rad_s) - std::abs(torque_nm);
 }
 
@@ -22,7 +31,7 @@ double ActuatorEnvelope::speedMargin(double speed_rad_s) const {
 }
 
 double ActuatorEnvelope::saturate(double torque_nm, double speed_rad_s) const {
-  const double limit = torqueLimit(speed_rad_s);
+  const double limit = torqueLimit(torque_nm, speed_rad_s);
   return std::clamp(torque_nm, -limit, limit);
 }
 

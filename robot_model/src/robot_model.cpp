@@ -115,6 +115,7 @@ struct ActuatorEntry {
   double gear_ratio = 0.0;
   double corner_speed_rad_s = 0.0;
   double peak_torque_override_nm = 0.0;
+  Braking braking = Braking::Peak;
 };
 
 // Largest peak torque an actuator file may set [Nm]: ten times the paper's 42 Nm, far above any
@@ -172,22 +173,28 @@ std::map<JointKind, ActuatorEntry> loadActuatorTable(const std::filesystem::path
   for (const auto& type : root["actuator_types"]) {
     const auto type_name = type.first.as<std::string>();
     const YAML::Node& node = type.second;
-    const std::set<std::string> allowed = {"joint_kinds", "gear_ratio", "corner_speed_rad_s"};
+    const std::set<std::string> allowed = {"joint_kinds", "gear_ratio", "corner_speed_rad_s",
+                                           "braking"};
     for (const auto& kv : node) {
       const auto key = kv.first.as<std::string>();
       if (!allowed.count(key))
         fail(file, "actuator_types." + type_name + ": unknown key '" + key +
-                       "' (allowed: joint_kinds, gear_ratio, corner_speed_rad_s)");
+                       "' (allowed: joint_kinds, gear_ratio, corner_speed_rad_s, braking)");
     }
     for (const auto& key : allowed)
       if (!node[key]) fail(file, "actuator_types." + type_name + ": missing key '" + key + "'");
     const double gear = node["gear_ratio"].as<double>();
     const double corner = node["corner_speed_rad_s"].as<double>();
+    const auto braking_name = node["braking"].as<std::string>();
+    if (braking_name != "peak" && braking_name != "envelope")
+      fail(file, "actuator_types." + type_name + ".braking: '" + braking_name +
+                     "' is not one of peak, envelope");
+    const Braking braking = braking_name == "peak" ? Braking::Peak : Braking::Envelope;
     for (const auto& kind_node : node["joint_kinds"]) {
       const JointKind kind = parseKind(file, kind_node.as<std::string>());
       if (table.count(kind))
         fail(file, "joint kind " + std::string(toString(kind)) + " listed in two actuator types");
-      table[kind] = {gear, corner, 0.0};
+      table[kind] = {gear, corner, 0.0, braking};
     }
   }
   for (const JointKind kind : kJointKinds)
@@ -329,8 +336,8 @@ RobotModel RobotModel::load(const std::filesystem::path& urdf_path,
       const ActuatorEntry& entry = actuator_table.at(kind);
       const double peak =
           entry.peak_torque_override_nm > 0.0 ? entry.peak_torque_override_nm : uj->limits->effort;
-      j.actuator =
-          ActuatorEnvelope{peak, entry.corner_speed_rad_s, uj->limits->velocity, entry.gear_ratio};
+      j.actuator = ActuatorEnvelope{peak, entry.corner_speed_rad_s, uj->limits->velocity,
+                                    entry.gear_ratio, entry.braking};
       try {
         j.actuator.validate(j.name);
       } catch (const std::invalid_argument& e) {
@@ -405,6 +412,14 @@ RobotModel RobotModel::withPeakTorque(JointKind kind, double peak_torque_nm) con
   tag.precision(17);
   tag << "peak_torque " << toString(kind) << " " << peak_torque_nm;
   m.content_hash_ = fnv1a(tag.str(), content_hash_);
+  return m;
+}
+
+RobotModel RobotModel::withBraking(Braking braking) const {
+  RobotModel m = *this;
+  for (JointSpec& j : m.joints_) j.actuator.braking = braking;
+  m.content_hash_ =
+      fnv1a(braking == Braking::Peak ? "braking peak" : "braking envelope", content_hash_);
   return m;
 }
 

@@ -94,7 +94,8 @@ std::unique_ptr<PlanVerifier> makeSimVerifier(const model::RobotModel& robot,
   // v5: the executor's take-off wheel law (the tyre-corrected speed reference with a slip band,
   // session 17), which changes the simulated jumps and so the stored verdicts.
   // v6: the executor's take-off momentum feedback and flight gains 300 / 6 (session 20).
-  std::uint64_t h = fnv1a64("wj::sim::Verifier v6");
+  // v7: the drives brake at their peak torque (the actuator file's `braking`; session 22).
+  std::uint64_t h = fnv1a64("wj::sim::Verifier v7");
   h = fnv1a64(config.sagittal_model ? "sagittal" : "full", h);
   h = fnv1a64(sim_text, h);
   for (const double x : {config.max_apex_height_error_m, config.max_touchdown_dx_error_m,

@@ -56,7 +56,7 @@ std::string findAsymmetry(const model::RobotModel& model) {
         !near(kS * l.X_PJ.linear() * kS, r.X_PJ.linear()) || !near(-s * (kS * l.axis), r.axis) ||
         r.continuous != l.continuous || !limits_ok || !near(a.peak_torque_nm, b.peak_torque_nm) ||
         !near(a.corner_speed_rad_s, b.corner_speed_rad_s) ||
-        !near(a.no_load_speed_rad_s, b.no_load_speed_rad_s))
+        !near(a.no_load_speed_rad_s, b.no_load_speed_rad_s) || a.braking != b.braking)
       return "joint " + r.name + " is not the mirror image of " + l.name;
     if (std::string why =
             checkInertia(model.links()[l.child_link].inertia, model.links()[r.child_link].inertia,

@@ -380,7 +380,7 @@ void VerificationRun::recordDrives(const GroundTruth& gt, JumpPhase phase) {
   for (int j = 0; j < model::kNumJoints; ++j) {
     const model::JointSpec& spec = model_.joints()[j];
     JointMetrics& m = r_.joints[j];
-    const double limit = spec.actuator.torqueLimit(gt.qd[j]);
+    const double limit = spec.actuator.torqueLimit(gt.tau_demand[j], gt.qd[j]);
     const double demand = std::abs(gt.tau_demand[j]);
     const double ratio = limit > 0.0 ? demand / limit : (demand > 0.0 ? kInf : 0.0);
     const double speed_ratio = std::abs(gt.qd[j]) / spec.actuator.no_load_speed_rad_s;

@@ -63,10 +63,27 @@ TEST(ActuatorEnvelope, CornerAndNoLoad) {
   EXPECT_DOUBLE_EQ(env.torqueLimit(30.0), 21.0);  // halfway down the linear segment
   EXPECT_DOUBLE_EQ(env.torqueLimit(40.0), 0.0);
   EXPECT_DOUBLE_EQ(env.torqueLimit(55.0), 0.0);
-  EXPECT_DOUBLE_EQ(env.torqueMargin(-25.0, 30.0), -4.0);
-  EXPECT_DOUBLE_EQ(env.saturate(-25.0, 30.0), -21.0);
+  // Driving (torque along the motion): the envelope.
+  EXPECT_DOUBLE_EQ(env.torqueMargin(25.0, 30.0), -4.0);
+  EXPECT_DOUBLE_EQ(env.torqueMargin(-25.0, -30.0), -4.0);
+  EXPECT_DOUBLE_EQ(env.saturate(25.0, 30.0), 21.0);
+  EXPECT_DOUBLE_EQ(env.saturate(-25.0, -30.0), -21.0);
   EXPECT_DOUBLE_EQ(env.saturate(10.0, 30.0), 10.0);
   EXPECT_DOUBLE_EQ(env.speedMargin(-35.0), 5.0);
+  // Braking (against the motion): the peak torque at any speed, even past the no-load speed
+  // (a load back-driving the joint).
+  EXPECT_EQ(env.braking, Braking::Peak);
+  EXPECT_DOUBLE_EQ(env.torqueLimit(-25.0, 30.0), 42.0);
+  EXPECT_DOUBLE_EQ(env.torqueMargin(-25.0, 30.0), 17.0);
+  EXPECT_DOUBLE_EQ(env.saturate(-50.0, 30.0), -42.0);
+  EXPECT_DOUBLE_EQ(env.saturate(50.0, -45.0), 42.0);
+  EXPECT_DOUBLE_EQ(env.torqueLimit(25.0, 30.0), env.torqueLimit(30.0));
+  EXPECT_DOUBLE_EQ(env.torqueLimit(5.0, 0.0), 42.0);
+  // A drive that does not regenerate brakes within its driving envelope.
+  const ActuatorEnvelope plain{42.0, 20.0, 40.0, 9.0, Braking::Envelope};
+  EXPECT_DOUBLE_EQ(plain.torqueMargin(-25.0, 30.0), -4.0);
+  EXPECT_DOUBLE_EQ(plain.saturate(-25.0, 30.0), -21.0);
+  EXPECT_DOUBLE_EQ(plain.saturate(50.0, -45.0), 0.0);
   EXPECT_THROW((ActuatorEnvelope{42.0, 45.0, 40.0, 9.0}.validate("x")), std::invalid_argument);
   EXPECT_THROW((ActuatorEnvelope{0.0, 20.0, 40.0, 9.0}.validate("x")), std::invalid_argument);
 }
@@ -177,7 +194,7 @@ TEST(RobotModel, BadInputGivesClearErrors) {
   {
     std::ofstream(dir / "bad.yaml") << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
                                        "    gear_ratio: 9\n    corner_speed_rad_s: 20\n"
-                                       "    cornr_speed: 3\n";
+                                       "    braking: peak\n    cornr_speed: 3\n";
   }
   EXPECT_THAT(test::errorOf<std::runtime_error>(
                   [&] { return RobotModel::load(kModels / "wheeljump.urdf", dir / "bad.yaml"); }),
@@ -185,12 +202,46 @@ TEST(RobotModel, BadInputGivesClearErrors) {
   {
     std::ofstream(dir / "missing.yaml")
         << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
-           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n";
+           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n    braking: peak\n";
   }
   EXPECT_THAT(test::errorOf<std::runtime_error>([&] {
                 return RobotModel::load(kModels / "wheeljump.urdf", dir / "missing.yaml");
               }),
               test::HasSubstr("WHEEL has no actuator type"));
+  // The braking limit is required and named: peak or envelope.
+  const std::string wheel =
+      "  wheel:\n    joint_kinds: [WHEEL]\n    gear_ratio: 9\n    corner_speed_rad_s: 20\n"
+      "    braking: peak\n";
+  {
+    std::ofstream(dir / "no_braking.yaml")
+        << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
+           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n"
+        << wheel;
+  }
+  EXPECT_THAT(test::errorOf<std::runtime_error>([&] {
+                return RobotModel::load(kModels / "wheeljump.urdf", dir / "no_braking.yaml");
+              }),
+              test::HasSubstr("actuator_types.leg: missing key 'braking'"));
+  {
+    std::ofstream(dir / "bad_braking.yaml")
+        << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
+           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n    braking: regen\n"
+        << wheel;
+  }
+  EXPECT_THAT(test::errorOf<std::runtime_error>([&] {
+                return RobotModel::load(kModels / "wheeljump.urdf", dir / "bad_braking.yaml");
+              }),
+              test::HasSubstr("actuator_types.leg.braking: 'regen' is not one of peak, envelope"));
+  {
+    std::ofstream(dir / "envelope.yaml")
+        << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
+           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n    braking: envelope\n"
+        << wheel;
+  }
+  const RobotModel plain = RobotModel::load(kModels / "wheeljump.urdf", dir / "envelope.yaml");
+  EXPECT_EQ(plain.joint(Leg::LH, JointKind::KFE).actuator.braking, Braking::Envelope);
+  EXPECT_EQ(plain.joint(Leg::LH, JointKind::Wheel).actuator.braking, Braking::Peak);
+  EXPECT_NE(plain.contentHash(), loadModel().contentHash());
   EXPECT_THROW((void)RobotModel::load(dir / "nope.urdf", kModels / "actuators.yaml"),
                std::runtime_error);
   std::filesystem::remove_all(dir);
@@ -241,8 +292,8 @@ TEST(RobotModel, PeakTorqueOverrideIsStrict) {
   std::filesystem::create_directories(dir);
   const std::string types =
       "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n    gear_ratio: 9\n"
-      "    corner_speed_rad_s: 20\n  wheel:\n    joint_kinds: [WHEEL]\n    gear_ratio: 9\n"
-      "    corner_speed_rad_s: 20\n";
+      "    corner_speed_rad_s: 20\n    braking: peak\n  wheel:\n    joint_kinds: [WHEEL]\n"
+      "    gear_ratio: 9\n    corner_speed_rad_s: 20\n    braking: peak\n";
   const auto expectError = [&](const std::string& overrides, const std::string& message) {
     std::ofstream(dir / "a.yaml") << types << overrides;
     {

@@ -100,8 +100,9 @@ TEST(VizFiles, StripOfSeveralJumpsHasARowPerJump) {
   EXPECT_EQ(xRanges(one.string() + ".gp").size(), 1u);
 }
 
-// The synthetic jump with the hind knees extending at 30 rad/s over the last 0.1 s of the push
-// (the front ones at rest), a plan of its own and a lift-off at 0.4 s.
+// The synthetic jump with the hind knees turning at 30 rad/s over the last 0.1 s of the push
+// (the front ones at rest), a plan of its own and a lift-off at 0.4 s: at -30 rad/s, along their
+// -30 Nm (driving), then over the last 10 ms at +30 rad/s, against it (braking).
 Recording kneeJump() {
   Recording rec = testing::makeSyntheticJump(robot(), {});
   rec.liftoff_t = 0.4;
@@ -109,7 +110,7 @@ Recording kneeJump() {
   for (Frame& f : rec.frames)
     if (f.t >= 0.3 && f.t < 0.4)
       for (const model::Leg leg : {model::Leg::LH, model::Leg::RH})
-        f.qd[model::jointIndex(leg, model::JointKind::KFE)] = 30.0;
+        f.qd[model::jointIndex(leg, model::JointKind::KFE)] = f.t < 0.39 ? -30.0 : 30.0;
   for (int k = 0; k <= 50; ++k) {
     PlannedJoints p;
     p.t = 0.01 * k;
@@ -136,8 +137,8 @@ TEST(VizFiles, KneeFigureWindowAndEnvelope) {
   const model::ActuatorEnvelope& a = robot().joints()[l.joints[1]].actuator;
   EXPECT_NEAR(l.max_envelope_ratio[0], 30.0 / a.peak_torque_nm, 1e-12);
   EXPECT_DOUBLE_EQ(l.max_abs_speed[0], 0.0);
-  // Hind knees: 30 Nm at 30 rad/s, where the linear fall of the envelope leaves
-  // peak (no_load - 30) / (no_load - corner).
+  // Hind knees: 30 Nm along 30 rad/s, where the linear fall of the envelope leaves
+  // peak (no_load - 30) / (no_load - corner); braking, they have the peak torque.
   const double limit_30 = a.peak_torque_nm * (a.no_load_speed_rad_s - 30.0) /
                           (a.no_load_speed_rad_s - a.corner_speed_rad_s);
   EXPECT_NEAR(l.max_envelope_ratio[1], 30.0 / limit_30, 1e-9);

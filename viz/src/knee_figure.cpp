@@ -63,7 +63,7 @@ KneeFigureLayout planKneeFigure(const model::RobotModel& robot, const Recording&
     ++l.frames;
     for (int i = 0; i < 2; ++i) {
       const int j = l.joints[i];
-      const double limit = robot.joints()[j].actuator.torqueLimit(f.qd[j]);
+      const double limit = robot.joints()[j].actuator.torqueLimit(f.tau[j], f.qd[j]);
       l.max_abs_speed[i] = std::max(l.max_abs_speed[i], std::abs(f.qd[j]));
       const double ratio = limit > 0.0
                                ? std::abs(f.tau[j]) / limit

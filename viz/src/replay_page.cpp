@@ -126,7 +126,7 @@ json pageData(const model::RobotModel& robot, const Recording& rec, const PageSe
     for (int j = 0; j < model::kNumJoints; ++j) {
       qi.push_back(r4(f.q[j]));
       ti.push_back(std::round(f.tau[j] * 100.0) / 100.0);
-      const double limit = robot.joints()[j].actuator.torqueLimit(f.qd[j]);
+      const double limit = robot.joints()[j].actuator.torqueLimit(f.tau[j], f.qd[j]);
       li.push_back(limit > 0.0 ? std::round(std::min(9.99, std::abs(f.tau[j]) / limit) * 1e3) / 1e3
                                : 9.99);
     }
