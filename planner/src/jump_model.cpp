@@ -220,7 +220,8 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   k_.num_contact_samples =
       s.samples_phase1 + (k_.task.mode == TakeoffMode::TwoStep ? s.samples_phase2 : 0);
   k_.num_constraint_samples = k_.per_contact_sample * k_.num_contact_samples +
-                              k_.per_flight_sample * s.samples_flight + (k_.task.obstacle ? 1 : 0);
+                              k_.per_flight_sample * s.samples_flight + (k_.task.obstacle ? 1 : 0) +
+                              detail::kFlightBrakeRows;
 }
 
 JumpModel::SampleOrigin JumpModel::constraintSampleOrigin(int i) const {
@@ -233,7 +234,10 @@ JumpModel::SampleOrigin JumpModel::constraintSampleOrigin(int i) const {
   const int flight = k_.per_flight_sample * k_.settings.samples_flight;
   if (j < flight)
     return {k_.per_contact_sample + j % k_.per_flight_sample, j / k_.per_flight_sample};
-  return {k_.per_contact_sample + k_.per_flight_sample, 0};  // landing beyond the obstacle
+  const int brake = j - flight - (k_.task.obstacle ? 1 : 0);
+  if (brake < 0) return {k_.per_contact_sample + k_.per_flight_sample, 0};  // landing beyond
+  // The legs' braking after the lift-off: a channel per joint (sweepFlight).
+  return {k_.per_contact_sample + k_.per_flight_sample + 1 + brake, 0};
 }
 
 Eigen::Vector2d JumpModel::comInBase(const Eigen::Vector2d& q_hind,

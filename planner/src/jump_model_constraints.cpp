@@ -110,6 +110,15 @@ void emitBody(const JumpModelConstants& M, double t, const PlanarState& s, const
   }
 }
 
+// How far a joint of `pair` that brakes from a lift-off comes to rest inside its limits, less
+// the clearance it must keep there.
+double brakeStopMargin(const JumpModelConstants& M, int pair, int j, const PairSample& p) {
+  const std::array<double, 2>& lim = j == 0 ? M.lim_hfe : M.lim_kfe;
+  const double clearance =
+      pair == 0 && j == 0 && M.task.isBackflip() ? kFlipHindHipClearance : kBrakeLimitClearance;
+  return std::min(p.q_stop[j] - lim[0], lim[1] - p.q_stop[j]) - clearance;
+}
+
 // Feeds every sampled margin of one take-off sample to `sink(class, margin, t, location)`.
 template <class Sink>
 void emitContact(const JumpModelConstants& M, const Sample& smp, Sink& sink) {
@@ -140,10 +149,7 @@ void emitContact(const JumpModelConstants& M, const Sample& smp, Sink& sink) {
     // Within the limits, and at a lift-off also where the braking joint comes to rest.
     auto within = [&](int j, const std::array<double, 2>& lim) {
       const double m = std::min(p.q[j] - lim[0], lim[1] - p.q[j]);
-      if (!p.brakes) return m;
-      const double clearance =
-          pair == 0 && j == 0 && M.task.isBackflip() ? kFlipHindHipClearance : kBrakeLimitClearance;
-      return std::min(m, std::min(p.q_stop[j] - lim[0], lim[1] - p.q_stop[j]) - clearance);
+      return p.brakes ? std::min(m, brakeStopMargin(M, pair, j, p)) : m;
     };
     sink(ConstraintClass::JointPosition, within(0, M.lim_hfe), smp.t, base + 1);
     // A backflip's hind knee pushes settings.flip_hind_knee_clearance_rad short of its stop.
@@ -304,6 +310,22 @@ bool sweepFlight(const JumpModelConstants& M, const Solved& S, Sink& sink, Stop&
           requiredClearance(M);
     }
     sink(ConstraintClass::ObstacleClearance, m, S.t3, -1);
+  }
+  // The legs' braking from the converged take-off state, which the flight's references follow
+  // (solveFlight; docs/planner.md, "Flight: the legs brake"): each joint comes to rest inside
+  // its limits. The lift-off sample above checks the same on the chained posture, whose joint
+  // speeds are up to 2.5 rad/s slower; near the no-load speed, where the envelope leaves the
+  // brake a few Nm, that is 0.2 rad more travel: vertical at 1 m/s, whose plans' own
+  // references ran the hind knee 0.29 rad past its stop.
+  for (int pair = 0; pair < 2; ++pair) {
+    const PairSample& p = S.takeoff_sample.pair(pair);
+    const int base =
+        model::jointIndex(pair == 0 ? model::Leg::LH : model::Leg::LF, model::JointKind::HAA);
+    for (int j = 0; j < 2; ++j)
+      sink(ConstraintClass::JointPosition,
+           p.brakes ? brakeStopMargin(M, pair, j, p)
+                    : JumpModel::classScale(ConstraintClass::JointPosition),
+           S.t2, base + 1 + j);
   }
   return true;
 }

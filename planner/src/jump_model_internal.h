@@ -34,6 +34,9 @@ inline constexpr double kBrakeLimitClearance = 0.03;
 /// past the stop the fixed-base brake model (startBrake) gives them, onto the HFE's range
 /// (docs/backflip.md, "Session 13").
 inline constexpr double kFlipHindHipClearance = 0.2;
+/// Constraint rows of the legs' braking after the lift-off, from the converged take-off state
+/// (sweepFlight): HFE and KFE of each pair.
+inline constexpr int kFlightBrakeRows = 4;
 
 /// One joint braking from its speed at a lift-off to rest (docs/planner.md, "Flight: the legs
 /// brake"): at `decel` up to the drive's corner speed and above it at the same share of the
