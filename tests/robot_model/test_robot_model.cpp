@@ -208,37 +208,22 @@ TEST(RobotModel, BadInputGivesClearErrors) {
                 return RobotModel::load(kModels / "wheeljump.urdf", dir / "missing.yaml");
               }),
               test::HasSubstr("WHEEL has no actuator type"));
-  // The braking limit is required and named: peak or envelope.
-  const std::string wheel =
-      "  wheel:\n    joint_kinds: [WHEEL]\n    gear_ratio: 9\n    corner_speed_rad_s: 20\n"
-      "    braking: peak\n";
-  {
-    std::ofstream(dir / "no_braking.yaml")
-        << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
-           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n"
-        << wheel;
-  }
-  EXPECT_THAT(test::errorOf<std::runtime_error>([&] {
-                return RobotModel::load(kModels / "wheeljump.urdf", dir / "no_braking.yaml");
-              }),
+  // The braking limit is required and named: peak or envelope. `leg_braking`: the leg type's
+  // braking line ("" for none), beside a wheel type that brakes at peak.
+  const auto loadWith = [&](const std::string& file, const std::string& leg_braking) {
+    std::ofstream(dir / file) << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
+                                 "    gear_ratio: 9\n    corner_speed_rad_s: 20\n"
+                              << leg_braking
+                              << "  wheel:\n    joint_kinds: [WHEEL]\n    gear_ratio: 9\n"
+                                 "    corner_speed_rad_s: 20\n    braking: peak\n";
+    return RobotModel::load(kModels / "wheeljump.urdf", dir / file);
+  };
+  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return loadWith("no_braking.yaml", ""); }),
               test::HasSubstr("actuator_types.leg: missing key 'braking'"));
-  {
-    std::ofstream(dir / "bad_braking.yaml")
-        << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
-           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n    braking: regen\n"
-        << wheel;
-  }
-  EXPECT_THAT(test::errorOf<std::runtime_error>([&] {
-                return RobotModel::load(kModels / "wheeljump.urdf", dir / "bad_braking.yaml");
-              }),
+  EXPECT_THAT(test::errorOf<std::runtime_error>(
+                  [&] { return loadWith("bad_braking.yaml", "    braking: regen\n"); }),
               test::HasSubstr("actuator_types.leg.braking: 'regen' is not one of peak, envelope"));
-  {
-    std::ofstream(dir / "envelope.yaml")
-        << "actuator_types:\n  leg:\n    joint_kinds: [HAA, HFE, KFE]\n"
-           "    gear_ratio: 9\n    corner_speed_rad_s: 20\n    braking: envelope\n"
-        << wheel;
-  }
-  const RobotModel plain = RobotModel::load(kModels / "wheeljump.urdf", dir / "envelope.yaml");
+  const RobotModel plain = loadWith("envelope.yaml", "    braking: envelope\n");
   EXPECT_EQ(plain.joint(Leg::LH, JointKind::KFE).actuator.braking, Braking::Envelope);
   EXPECT_EQ(plain.joint(Leg::LH, JointKind::Wheel).actuator.braking, Braking::Peak);
   EXPECT_NE(plain.contentHash(), loadModel().contentHash());
