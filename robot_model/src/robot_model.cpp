@@ -415,14 +415,6 @@ RobotModel RobotModel::withPeakTorque(JointKind kind, double peak_torque_nm) con
   return m;
 }
 
-RobotModel RobotModel::withBraking(Braking braking) const {
-  RobotModel m = *this;
-  for (JointSpec& j : m.joints_) j.actuator.braking = braking;
-  m.content_hash_ =
-      fnv1a(braking == Braking::Peak ? "braking peak" : "braking envelope", content_hash_);
-  return m;
-}
-
 std::vector<Eigen::Isometry3d> RobotModel::calcLinkPoses(const Eigen::VectorXd& q) const {
   std::vector<Eigen::Isometry3d> X_BL;
   calcLinkPoses(q, X_BL);

@@ -128,10 +128,6 @@ class RobotModel {
   /// the same from configuration). The content hash changes with it. Throws
   /// std::invalid_argument unless the torque lies in (0, 420] Nm.
   RobotModel withPeakTorque(JointKind kind, double peak_torque_nm) const;
-  /// A copy whose every drive brakes with `braking` (what-if robots, and the tests' drives that
-  /// do not regenerate; an actuator file's `braking` key does the same from configuration). The
-  /// content hash changes with it.
-  RobotModel withBraking(Braking braking) const;
 
   const std::string& name() const { return name_; }
   const std::vector<LinkSpec>& links() const { return links_; }
