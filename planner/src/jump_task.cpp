@@ -1,5 +1,6 @@
 #include "planner/jump_task.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -50,8 +51,22 @@ bool JumpTask::isBackflip() const {
   return mode == TakeoffMode::TwoStep && target.pitch_change > M_PI;
 }
 
+double maxRunUpSpeed(const model::RobotModel& robot) {
+  double reach = 4.0;
+  for (const model::Leg leg : model::kLegs)
+    reach =
+        std::min(reach, robot.wheelRadius() *
+                            robot.joint(leg, model::JointKind::Wheel).actuator.no_load_speed_rad_s);
+  return reach;
+}
+
 void InitialState::validate(const model::RobotModel& robot) const {
-  requireRange("initial.v0", v0, -1.0, 4.0);
+  if (const double hi = maxRunUpSpeed(robot); !inRange(v0, kMinRunUpSpeed, hi)) {
+    std::ostringstream ss;
+    ss << "initial.v0 must be finite and in [" << kMinRunUpSpeed << ", " << hi
+       << "] (up to the wheels' reach: radius x no-load speed), got " << v0;
+    throw std::invalid_argument(ss.str());
+  }
   requireRange("initial.pitch", pitch, -0.5, 0.5);
   requireRange("initial.pitch_rate", pitch_rate, -3.0, 3.0);
   for (int i = 0; i < model::kNumJoints; ++i) {

@@ -131,10 +131,11 @@ json benchKill(const std::filesystem::path& dir, int rounds, std::uint32_t seed)
       wj::client::PlannerClient c(o);
       v1::WarmCacheRequest w;
       *w.mutable_task() = standing(0.0, 0.8).task();
-      // Disjoint grids per round, in 0.05 m/s steps over [-1, 4].
-      const double lo = -1.0 + 0.05 * ((round * 13) % 90);
+      // Disjoint grids per round, in 0.05 m/s steps over [-1, 3.4] (3.4 m/s: the default
+      // robot's wheels' reach, planner::maxRunUpSpeed).
+      const double lo = -1.0 + 0.05 * ((round * 13) % 88);
       w.set_v0_min_m_s(lo);
-      w.set_v0_max_m_s(std::min(4.0, lo + 1.0));
+      w.set_v0_max_m_s(std::min(3.4, lo + 1.0));
       w.set_v0_step_m_s(0.05);
       std::promise<void> done;
       c.warmCache(

@@ -256,13 +256,15 @@ WarmRequest toWarmRequest(const v1::WarmCacheRequest& request, const model::Robo
   WarmRequest w;
   w.task = toJumpTask(request.task(), robot, nominal);
   const double lo = request.v0_min_m_s(), hi = request.v0_max_m_s(), step = request.v0_step_m_s();
-  // The planner's run-up range (InitialState::validate).
+  // The planner's run-up range (InitialState::validate): up to the wheels' reach.
+  const double v_lo = planner::kMinRunUpSpeed, v_hi = planner::maxRunUpSpeed(robot);
   for (const auto& [name, v] : {std::pair{"v0_min_m_s", lo}, {"v0_max_m_s", hi}}) {
-    if (!std::isfinite(v) || v < -1.0 || v > 4.0)
-      invalid(std::string(name) + " must be finite and in [-1, 4], got " + fmt(v));
+    if (!std::isfinite(v) || v < v_lo || v > v_hi)
+      invalid(std::string(name) + " must be finite and in [" + fmt(v_lo) + ", " + fmt(v_hi) +
+              "] (up to the wheels' reach: radius x no-load speed), got " + fmt(v));
   }
   if (hi < lo) invalid("v0_max_m_s must be >= v0_min_m_s (" + fmt(lo) + "), got " + fmt(hi));
-  // A step wider than the whole run-up range [-1, 4] names no second point: absurd.
+  // A step wider than any run-up range (at most [-1, 4]) names no second point: absurd.
   if (!std::isfinite(step) || step <= 0.0 || step > 5.0)
     invalid("v0_step_m_s must be finite and in (0, 5] (the width of the run-up range), got " +
             fmt(step));

@@ -973,6 +973,14 @@ TEST(JumpPlanner, BadArgumentsGiveClearErrors) {
   Scenario bad = sc;
   bad.initial.v0 = std::nan("");
   expectError(bad, "initial.v0");
+  // Faster than the wheels can roll: 0.085 m x 40 rad/s = 3.4 m/s, where their drives have no
+  // torque left.
+  EXPECT_DOUBLE_EQ(maxRunUpSpeed(planner.robot()), 0.085 * 40.0);
+  bad = sc;
+  bad.initial.v0 = 3.5;
+  expectError(bad, "initial.v0 must be finite and in [-1, 3.4] (up to the wheels' reach");
+  bad.initial.v0 = 3.39;
+  EXPECT_NO_THROW(bad.initial.validate(planner.robot()));
   bad = sc;
   bad.task.target.height = -0.2;
   expectError(bad, "task.target.height must be finite and in [0.1, 1.5]");

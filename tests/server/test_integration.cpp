@@ -637,8 +637,8 @@ TEST(Integration, KillNineMidWriteLosesNoCommittedEntryAndClientsRecover) {
     auto server = std::make_unique<ServerProcess>(config, dir / "server.yaml");
     {
       client::PlannerClient c(clientFor(server->target(), 1));
-      w.set_v0_min_m_s(-1.0 + 1.6 * round);
-      w.set_v0_max_m_s(w.v0_min_m_s() + 1.5);
+      w.set_v0_min_m_s(-1.0 + 1.45 * round);
+      w.set_v0_max_m_s(w.v0_min_m_s() + 1.4);  // up to 3.3 m/s, within the wheels' reach
       std::mutex mu;
       std::condition_variable cv;
       int received = 0;

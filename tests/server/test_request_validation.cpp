@@ -92,7 +92,10 @@ TEST(RequestValidation, EveryBadFieldIsNamedWithItsRange) {
        {"state.base_orientation_w (pitch", "[-0.5, 0.5]"}},
       {"too fast",
        [](auto& r) { r.mutable_state()->mutable_base_linear_velocity_w_m_s()->set_x(4.5); },
-       {"state.base_linear_velocity_w_m_s (forward speed", "[-1, 4]", "4.5"}},
+       {"state.base_linear_velocity_w_m_s (forward speed", "[-1, 3.4]", "wheels' reach", "4.5"}},
+      {"faster than the wheels can roll",  // 3.5 m/s > 0.085 m x 40 rad/s
+       [](auto& r) { r.mutable_state()->mutable_base_linear_velocity_w_m_s()->set_x(3.5); },
+       {"state.base_linear_velocity_w_m_s (forward speed", "[-1, 3.4]", "3.5"}},
       {"NaN velocity",
        [](auto& r) { r.mutable_state()->mutable_base_linear_velocity_w_m_s()->set_z(kNaN); },
        {"state.base_linear_velocity_w_m_s.z", "finite"}},
@@ -406,7 +409,7 @@ TEST(RequestValidation, WarmCacheGrid) {
   bad.set_v0_step_m_s(6.0);
   EXPECT_NE(rejected(bad).find("v0_step_m_s must be finite and in (0, 5]"), std::string::npos);
   bad = w;
-  bad.set_v0_max_m_s(4.0);
+  bad.set_v0_max_m_s(3.4);
   bad.set_v0_min_m_s(-1.0);
   bad.set_v0_step_m_s(0.001);
   EXPECT_NE(rejected(bad).find("at most 1000 points"), std::string::npos);
@@ -415,7 +418,7 @@ TEST(RequestValidation, WarmCacheGrid) {
   EXPECT_NE(rejected(bad).find("v0_max_m_s must be >= v0_min_m_s"), std::string::npos);
   bad = w;
   bad.set_v0_min_m_s(kNaN);
-  EXPECT_NE(rejected(bad).find("v0_min_m_s must be finite and in [-1, 4]"), std::string::npos);
+  EXPECT_NE(rejected(bad).find("v0_min_m_s must be finite and in [-1, 3.4]"), std::string::npos);
   bad = w;
   bad.clear_task();
   EXPECT_NE(rejected(bad).find("task is required"), std::string::npos);

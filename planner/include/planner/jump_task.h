@@ -45,7 +45,8 @@ struct JumpTask {
 /// The measured state at the start of the take-off. The wheels are on flat ground; the CoM
 /// height follows from the posture.
 struct InitialState {
-  double v0 = 0.0;          ///< forward CoM speed, the run-up [m/s], in [-1, 4]
+  /// Forward CoM speed, the run-up [m/s], in [-1, maxRunUpSpeed(robot)].
+  double v0 = 0.0;
   double pitch = 0.0;       ///< base pitch, nose-up positive [rad], in [-0.5, 0.5]
   double pitch_rate = 0.0;  ///< [rad/s], in [-3, 3]
   /// Joint positions [rad], jointIndex order; the sagittal joints must be within limits.
@@ -55,5 +56,13 @@ struct InitialState {
   /// Throws std::invalid_argument naming the field and its allowed range.
   void validate(const model::RobotModel& robot) const;
 };
+
+/// The fastest run-up the robot can roll at [m/s]: the wheel radius times the wheels' no-load
+/// speed (the slowest wheel's), where their drives have no torque left (40 rad/s x 0.085 m = 3.4
+/// m/s on the default robot), capped at 4 m/s. A faster v0 is no state the robot can be in.
+[[nodiscard]] double maxRunUpSpeed(const model::RobotModel& robot);
+
+/// The slowest run-up [m/s]: a backward roll of 1 m/s (the backflip's).
+inline constexpr double kMinRunUpSpeed = -1.0;
 
 }  // namespace wj::planner
