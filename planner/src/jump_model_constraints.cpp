@@ -172,9 +172,10 @@ void emitContact(const JumpModelConstants& M, const Sample& smp, Sink& sink) {
          base + 1);
     sink(ConstraintClass::ActuatorEnvelope, M.env_kfe.drivingMargin(p.tau[1], p.qd[1]), smp.t,
          base + 2);
-    sink(ConstraintClass::WheelTraction, M.env_wheel.drivingMargin(p.wheel_tau, p.wheel_rate),
-         smp.t, base + 3);
-    sink(ConstraintClass::WheelSpeed, M.env_wheel.speedMargin(p.wheel_rate), smp.t, base + 3);
+    sink(ConstraintClass::WheelTraction,
+         M.env_wheel.drivingMargin(p.wheel_tau, p.wheel_rate_loaded), smp.t, base + 3);
+    sink(ConstraintClass::WheelSpeed, M.env_wheel.speedMargin(p.wheel_rate_loaded), smp.t,
+         base + 3);
   }
   emitBody(M, smp.t, smp.s, smp.R, smp.c, &smp, nullptr, sink);
 }

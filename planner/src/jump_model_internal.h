@@ -64,11 +64,14 @@ struct JointBrake {
 /// Kinematics and statics of one wheel pair at one instant (left leg; right is mirrored).
 struct PairSample {
   bool contact = false;
-  Eigen::Vector2d q = Eigen::Vector2d::Zero();     // HFE, KFE [rad]
-  Eigen::Vector2d qd = Eigen::Vector2d::Zero();    // [rad/s]
-  Eigen::Vector2d tau = Eigen::Vector2d::Zero();   // HFE, KFE [Nm]
-  double haa_fz = 0.0;                             // body-z force per wheel, for the HAA torque [N]
-  double wheel_rate = 0.0;                         // wheel joint speed [rad/s]
+  Eigen::Vector2d q = Eigen::Vector2d::Zero();    // HFE, KFE [rad]
+  Eigen::Vector2d qd = Eigen::Vector2d::Zero();   // [rad/s]
+  Eigen::Vector2d tau = Eigen::Vector2d::Zero();  // HFE, KFE [Nm]
+  double haa_fz = 0.0;                            // body-z force per wheel, for the HAA torque [N]
+  double wheel_rate = 0.0;                        // wheel joint speed [rad/s]
+  // The loaded tyre's joint speed (PlannerSettings::tyre_rolling_radius_ratio): what the
+  // wheel's speed and envelope margins take [rad/s].
+  double wheel_rate_loaded = 0.0;
   double wheel_tau = 0.0;                          // [Nm]
   Eigen::Vector2d f = Eigen::Vector2d::Zero();     // ground force per wheel, J frame [N]
   Eigen::Vector2d axle = Eigen::Vector2d::Zero();  // axle position in J [m]

@@ -33,6 +33,10 @@ void statics(const JumpModelConstants& M, const PlanarState& s, const Rot2& R, c
   // -pitch_rate + qd1 + qd2 about +y (nose-up pitch is a rotation about -y).
   p.wheel_rate = axle_vx / r - (-s.pitch_rate + p.qd[0] + p.qd[1]);
   p.wheel_tau = r * f.x();
+  // A loaded tyre rolls on ratio x r and slips at its traction over its slip stiffness.
+  const PlannerSettings& set = M.settings;
+  p.wheel_rate_loaded = p.wheel_rate + (1.0 / set.tyre_rolling_radius_ratio - 1.0) * axle_vx / r +
+                        p.wheel_tau / (r * r * set.tyre_slip_stiffness_n_s_m);
 }
 
 }  // namespace
@@ -231,7 +235,7 @@ void contactStatics(const JumpModelConstants& M, const Solved& S, Sample& out) {
     H.qd = std::abs(A.determinant()) > 1e-12
                ? Eigen::Vector2d(A.inverse() * (relH_dot + C_pair[1] * F.qd))
                : Eigen::Vector2d(1e3, 1e3);
-    F.wheel_rate = S.front_wheel_rate_t1;
+    F.wheel_rate = F.wheel_rate_loaded = S.front_wheel_rate_t1;  // in the air: no tyre load
   }
   // Where the joints come to rest if they brake from here: at its lift-off sample each pair
   // must stop kBrakeLimitClearance short of its limits (emitContact).

@@ -124,6 +124,10 @@ void PlannerSettings::validate() const {
         "in (0, 10]", actuator_torque_scale);
   check(takeoff_unload_s >= 0 && takeoff_unload_s <= 0.02, "physics.takeoff_unload_s",
         "in [0, 0.02]", takeoff_unload_s);
+  check(tyre_rolling_radius_ratio >= 0.8 && tyre_rolling_radius_ratio <= 1.2,
+        "physics.tyre_rolling_radius_ratio", "in [0.8, 1.2]", tyre_rolling_radius_ratio);
+  check(tyre_slip_stiffness_n_s_m > 0, "physics.tyre_slip_stiffness_n_s_m", "> 0",
+        tyre_slip_stiffness_n_s_m);
   check(tuck_end_fraction > 0 && tuck_end_fraction < extend_start_fraction,
         "postures.tuck_end_fraction", "in (0, extend_start_fraction)", tuck_end_fraction);
   check(extend_start_fraction < extend_end_fraction && extend_end_fraction <= 1,
@@ -334,6 +338,8 @@ PlannerSettings parse(const YAML::Node& root) {
               {"platform_margin_m", number(s.platform_margin_m)},
               {"actuator_torque_scale", number(s.actuator_torque_scale)},
               {"takeoff_unload_s", number(s.takeoff_unload_s)},
+              {"tyre_rolling_radius_ratio", number(s.tyre_rolling_radius_ratio)},
+              {"tyre_slip_stiffness_n_s_m", number(s.tyre_slip_stiffness_n_s_m)},
               {"balanced_stance", [&](const YAML::Node& v) { s.balanced_stance = v.as<bool>(); }},
               {"actuator_model",
                choice(s.actuator_model, std::map<std::string, ActuatorModel>{

@@ -217,9 +217,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // initial guess below; 10: a backflip's hind roll from its phase-1 speed at t1, which no probe
   // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below;
   // 12: takeoff_unload_s below; 13: the backflip's hind knee clearance and front brake share
-  // below; 14: balanced_stance below), which the probes below, run without the polish, do not
-  // see.
-  w.put(std::uint32_t{14});
+  // below; 14: balanced_stance below; 15: the loaded tyre below), which the probes below, run
+  // without the polish, do not see.
+  w.put(std::uint32_t{15});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -266,6 +266,10 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // The balanced stance (the "up" probe's plan sees it too; hashed so that a cache never mixes
   // the two models' plans).
   w.putBool(s.balanced_stance);
+  // The loaded tyre of the wheels' margins (the probes bind no wheel margin near the no-load
+  // speed, where it matters).
+  w.putDouble(s.tyre_rolling_radius_ratio);
+  w.putDouble(s.tyre_slip_stiffness_n_s_m);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

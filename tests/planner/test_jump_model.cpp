@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 
 #include "error_of.h"
@@ -1026,6 +1027,60 @@ TEST(PlannerSettings, UnloadingTailIsReadAndCheckedWithItsRange) {
                 (void)PlannerSettings::fromYamlString("physics: {takeoff_unload_s: 0.05}\n");
               }),
               test::HasSubstr("physics.takeoff_unload_s must be in [0, 0.02]"));
+}
+
+TEST(PlannerSettings, TyreIsReadAndCheckedWithItsRange) {
+  const PlannerSettings d;
+  EXPECT_DOUBLE_EQ(d.tyre_rolling_radius_ratio, 0.99);
+  EXPECT_DOUBLE_EQ(d.tyre_slip_stiffness_n_s_m, 370.0);
+  const PlannerSettings s = PlannerSettings::fromYamlString(
+      "physics: {tyre_rolling_radius_ratio: 1.0, tyre_slip_stiffness_n_s_m: 1.0e12}\n");
+  EXPECT_DOUBLE_EQ(s.tyre_rolling_radius_ratio, 1.0);
+  EXPECT_DOUBLE_EQ(s.tyre_slip_stiffness_n_s_m, 1e12);
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([] {
+        (void)PlannerSettings::fromYamlString("physics: {tyre_rolling_radius_ratio: 0.5}\n");
+      }),
+      test::HasSubstr("physics.tyre_rolling_radius_ratio must be in [0.8, 1.2], got 0.5"));
+  EXPECT_THAT(test::errorOf<std::runtime_error>([] {
+                (void)PlannerSettings::fromYamlString("physics: {tyre_slip_stiffness_n_s_m: 0}\n");
+              }),
+              test::HasSubstr("physics.tyre_slip_stiffness_n_s_m must be > 0"));
+}
+
+// The wheels' speed and envelope margins are the loaded tyre's: its joint turns 1 / ratio
+// times the rigid wheel's rolling rate v_axle / r, plus the slip of its traction (tau / r over
+// the slip stiffness, / r). At forward_hw's 3 m/s run-up the rigid wheel rolls at 35.3 rad/s:
+// the tyre's 0.99 takes 0.36 rad/s more off the speed margin, its slip up to tau_max / (r^2 k).
+TEST(JumpModel, WheelMarginsAreTheLoadedTyres) {
+  const JumpPlanner planner = makePlanner();
+  const Scenario sc = makePreset(planner, "forward_hw");
+  PlannerSettings rigid = planner.settings();
+  rigid.tyre_rolling_radius_ratio = 1.0;
+  rigid.tyre_slip_stiffness_n_s_m = 1e12;  // no slip to speak of
+  const JumpModel loaded_model(robot(), planner.settings(), sc.task, sc.initial);
+  const JumpModel rigid_model(robot(), rigid, sc.task, sc.initial);
+  Evaluation loaded, ideal;
+  const Eigen::VectorXd u = nominalU(loaded_model);
+  loaded_model.evaluate(u, loaded);
+  rigid_model.evaluate(u, ideal);
+  ASSERT_TRUE(loaded.valid && ideal.valid);
+  const auto worst = [](const Evaluation& ev, ConstraintClass c) {
+    return ev.margins[static_cast<int>(c)].worst;
+  };
+  const double r = robot().wheelRadius();
+  const double rolling = (1.0 / 0.99 - 1.0) * sc.initial.v0 / r;  // 0.36 rad/s at 3 m/s
+  const double slip_max = 42.0 / (r * r * 370.0);                 // at the peak wheel torque
+  const double dw =
+      worst(ideal, ConstraintClass::WheelSpeed) - worst(loaded, ConstraintClass::WheelSpeed);
+  EXPECT_GE(dw, 0.9 * rolling);
+  EXPECT_LE(dw, 1.5 * rolling + slip_max);
+  EXPECT_LT(worst(loaded, ConstraintClass::WheelTraction),
+            worst(ideal, ConstraintClass::WheelTraction));
+  // Everything else is the same model.
+  EXPECT_EQ(worst(loaded, ConstraintClass::NormalForce),
+            worst(ideal, ConstraintClass::NormalForce));
+  EXPECT_EQ(loaded.energy_j, ideal.energy_j);
 }
 
 TEST(PlannerSettings, BalancedStanceIsReadAndCheckedAsABoolean) {

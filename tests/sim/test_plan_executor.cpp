@@ -11,6 +11,7 @@
 #include <Eigen/Geometry>
 
 #include "error_of.h"
+#include "planner/planner_settings.h"
 #include "sim/plan_executor.h"
 #include "test_robot.h"
 
@@ -62,6 +63,15 @@ ExecutorSettings gains(double kp, double kd, double max_nm) {
 
 double wheelTau(const model::JointCommands& c, Leg leg) {
   return c[jointIndex(leg, JointKind::Wheel)].tau_ff;
+}
+
+// The planner takes the wheels' margins at the loaded tyre's joint rate with the same tyre as
+// the executor's wheel law (PlannerSettings::tyre_rolling_radius_ratio): one tyre, two places.
+TEST(PlanExecutor, TyreFiguresAreThePlannersOwn) {
+  const ExecutorSettings e;
+  const planner::PlannerSettings p;
+  EXPECT_DOUBLE_EQ(e.tyre_rolling_radius_ratio, p.tyre_rolling_radius_ratio);
+  EXPECT_DOUBLE_EQ(e.tyre_slip_stiffness_n_s_m, p.tyre_slip_stiffness_n_s_m);
 }
 
 TEST(PlanExecutor, HindWheelsCloseThePitchLoopOnlyOnTheHindWheels) {

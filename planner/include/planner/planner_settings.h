@@ -100,6 +100,16 @@ struct PlannerSettings {
   /// (session 16, 30 cases); 0: no tail at all, the flight starts from the push's state at t2
   /// (the model until session 13). A two-step take-off is not affected.
   double takeoff_unload_s = 0.003;
+  /// The loaded tyre (docs/planner.md, "The loaded tyre"): the model's wheels roll without
+  /// slip on their nominal radius r, but a loaded tyre rolls on this fraction of it, so its
+  /// joint turns 1 / ratio times faster than the rigid wheel's, and it carries a traction F
+  /// only while its contact slips at F / tyre_slip_stiffness_n_s_m, which the joint adds too.
+  /// The wheels' speed and envelope margins are taken at that joint rate (Simbody's wheels
+  /// turn 0.8-1.0 rad/s faster than the rigid rate in forward_hw's push). The same figures as
+  /// the executor's (sim::ExecutorSettings, a test checks it); ratio 1 and a very large
+  /// stiffness: the rigid wheel.
+  double tyre_rolling_radius_ratio = 0.99;
+  double tyre_slip_stiffness_n_s_m = 370.0;  ///< [N s/m] per wheel; see tyre_rolling_radius_ratio
   /// The balanced stance (`physics.balanced_stance`; docs/planner.md, "The balanced stance"):
   /// a simultaneous take-off's export moves normal force between the pairs until they make
   /// the moment the plan's motion needs (the rigid-body pitch leaves out the legs' momentum:
