@@ -383,12 +383,16 @@ bool stanceMomentumFromEnv() {
 /// (docs/planner.md, "What the simulation itself resolves"). WJ_FIDELITY_TRANSITION_VELOCITY:
 /// the friction law's transition speed [m/s] in place of the default 0.2 (below 0.2 with the
 /// reference integrator only: the 1 ms step chatters, docs/sim.md "Integrator").
+/// WJ_FIDELITY_CONTACT_STIFFNESS: the contact's plane-strain modulus [Pa] in place of 8e6 (how
+/// much of the gap is the tyre's compliance, docs/planner.md "The tyre's lag").
 VerifierSettings verifierSettings() {
   const char* reference = std::getenv("WJ_FIDELITY_REFERENCE_INTEGRATOR");
   VerifierSettings s = reference && std::string(reference) == "1" ? VerifierSettings::reference()
                                                                   : VerifierSettings{};
   if (const char* vt = std::getenv("WJ_FIDELITY_TRANSITION_VELOCITY"))
     s.sim.contact.transition_velocity_m_s = std::stod(vt);
+  if (const char* k = std::getenv("WJ_FIDELITY_CONTACT_STIFFNESS"))
+    s.sim.contact.stiffness_pa = std::stod(k);
   const char* v = std::getenv("WJ_FIDELITY_SPEED_LOOP");
   if (v && std::string(v) == "1") {
     s.executor.takeoff_wheel_slip_band_m_s = 0.0;
