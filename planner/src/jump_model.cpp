@@ -101,6 +101,8 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   k_.env_hfe = k_.robot.joint(Leg::LF, JointKind::HFE).actuator;
   k_.env_kfe = k_.robot.joint(Leg::LF, JointKind::KFE).actuator;
   k_.env_wheel = k_.robot.joint(Leg::LF, JointKind::Wheel).actuator;
+  k_.tyre_rolling_excess = 1.0 / k_.settings.tyre_rolling_radius_ratio - 1.0;
+  k_.tyre_slip_torque = k_.wheel_radius * k_.wheel_radius * k_.settings.tyre_slip_stiffness_n_s_m;
   for (auto* env : {&k_.env_haa, &k_.env_hfe, &k_.env_kfe, &k_.env_wheel}) {
     env->peak_torque_nm *= k_.settings.actuator_torque_scale;
     // The paper's drives: the peak torque at every speed up to the no-load speed.

@@ -34,9 +34,8 @@ void statics(const JumpModelConstants& M, const PlanarState& s, const Rot2& R, c
   p.wheel_rate = axle_vx / r - (-s.pitch_rate + p.qd[0] + p.qd[1]);
   p.wheel_tau = r * f.x();
   // A loaded tyre rolls on ratio x r and slips at its traction over its slip stiffness.
-  const PlannerSettings& set = M.settings;
-  p.wheel_rate_loaded = p.wheel_rate + (1.0 / set.tyre_rolling_radius_ratio - 1.0) * axle_vx / r +
-                        p.wheel_tau / (r * r * set.tyre_slip_stiffness_n_s_m);
+  p.wheel_rate_loaded =
+      p.wheel_rate + M.tyre_rolling_excess * axle_vx / r + p.wheel_tau / M.tyre_slip_torque;
 }
 
 }  // namespace

@@ -14,9 +14,13 @@ bool inRange(double value, double lo, double hi) {
   return std::isfinite(value) && value >= lo && value <= hi;
 }
 
-[[noreturn]] void outOfRange(std::string_view field, double value, double lo, double hi) {
+// `why`, if given, says where the range comes from.
+[[noreturn]] void outOfRange(std::string_view field, double value, double lo, double hi,
+                             std::string_view why = {}) {
   std::ostringstream ss;
-  ss << field << " must be finite and in [" << lo << ", " << hi << "], got " << value;
+  ss << field << " must be finite and in [" << lo << ", " << hi << "]";
+  if (!why.empty()) ss << " (" << why << ")";
+  ss << ", got " << value;
   throw std::invalid_argument(ss.str());
 }
 
@@ -61,12 +65,9 @@ double maxRunUpSpeed(const model::RobotModel& robot) {
 }
 
 void InitialState::validate(const model::RobotModel& robot) const {
-  if (const double hi = maxRunUpSpeed(robot); !inRange(v0, kMinRunUpSpeed, hi)) {
-    std::ostringstream ss;
-    ss << "initial.v0 must be finite and in [" << kMinRunUpSpeed << ", " << hi
-       << "] (up to the wheels' reach: radius x no-load speed), got " << v0;
-    throw std::invalid_argument(ss.str());
-  }
+  if (const double hi = maxRunUpSpeed(robot); !inRange(v0, kMinRunUpSpeed, hi))
+    outOfRange("initial.v0", v0, kMinRunUpSpeed, hi,
+               "up to the wheels' reach: radius x no-load speed");
   requireRange("initial.pitch", pitch, -0.5, 0.5);
   requireRange("initial.pitch_rate", pitch_rate, -3.0, 3.0);
   for (int i = 0; i < model::kNumJoints; ++i) {

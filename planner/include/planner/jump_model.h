@@ -130,6 +130,9 @@ struct JumpModelConstants {
   /// "Stance momentum") [kg m^2/s].
   double e0 = 0.0;
   model::ActuatorEnvelope env_haa, env_hfe, env_kfe, env_wheel;
+  /// The loaded tyre's additions to a wheel's joint rate (settings.tyre_*): 1 / ratio - 1 per
+  /// unit of rolling rate v_axle / r, and r^2 k, the wheel torque per rad/s of slip [Nm s/rad].
+  double tyre_rolling_excess = 0.0, tyre_slip_torque = 0.0;
   std::array<double, 2> lim_hfe{}, lim_kfe{};
   /// Each pair's leg as a fixed-base two-link arm, for its joint-space inertia M(q_KFE)
   /// (docs/planner.md, "Flight: the legs brake"): M11 = i_hip + 2 m_l1_c cos q2, M12 = i_knee
