@@ -190,6 +190,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
       placement_td_ = calcPlacementOffset(t);
     }
     last_contact_t_ = t;
+    if (phase_ == JumpPhase::Takeoff) airborne_ = false;  // a hop in the push, not the flight
   } else if (t - last_contact_t_ >= settings_.airborne_debounce_s - 1e-12) {
     airborne_ = true;
   }

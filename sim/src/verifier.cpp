@@ -357,6 +357,13 @@ void VerificationRun::recordFlight(const GroundTruth& gt, bool contact,
     r_.measured.takeoff = last_contact_;
     r_.measured.apex = last_contact_;
   }
+  if (r_.took_off && !r_.touched_down && contact && !executor.wasAirborne()) {
+    // Back on the ground within the take-off phase (the executor cleared its flag): that was
+    // a hop in the push, not the flight; the take-off is the last contact before the next.
+    r_.took_off = false;
+    r_.max_base_z_m = -kInf;
+    return;
+  }
   if (r_.took_off && !r_.touched_down) {
     if (contact) {
       r_.touched_down = true;

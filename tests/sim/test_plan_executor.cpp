@@ -74,6 +74,30 @@ TEST(PlanExecutor, TyreFiguresAreThePlannersOwn) {
   EXPECT_DOUBLE_EQ(e.tyre_slip_stiffness_n_s_m, p.tyre_slip_stiffness_n_s_m);
 }
 
+// All wheels off the ground for the debounce is the flight, unless a wheel touches again while
+// the take-off runs: a robot placed a few mm off the ground by a measured start state falls or
+// bounces at first, and that hop is not the jump (the verifier would take its lift-off as the
+// take-off). Once the flight phase runs, a contact is the landing's, and the flag holds.
+TEST(PlanExecutor, AHopInTheTakeoffIsNotTheFlight) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan(2.0);  // t2 = 0.3
+  PlanExecutor ex(robot, plan, gains(0.0, 0.0, 0.0), 9.81);
+  model::JointCommands c{};
+  ex.update(0.000, pitched(0.5, 1.0), true, c);
+  ex.update(0.005, pitched(0.5, 1.0), false, c);
+  ex.update(0.016, pitched(0.5, 1.0), false, c);  // 11 ms off: past the 10 ms debounce
+  EXPECT_TRUE(ex.wasAirborne());
+  ex.update(0.020, pitched(0.5, 1.0), true, c);  // back on the ground in the push
+  EXPECT_FALSE(ex.wasAirborne());
+  EXPECT_EQ(ex.phase(), JumpPhase::Takeoff);
+  ex.update(0.300, pitched(0.5, 1.0), false, c);  // the lift-off, then the flight
+  ex.update(0.320, pitched(0.5, 1.0), false, c);
+  EXPECT_TRUE(ex.wasAirborne());
+  EXPECT_EQ(ex.phase(), JumpPhase::Flight);
+  ex.update(0.330, pitched(0.5, 1.0), true, c);  // a contact in the flight phase
+  EXPECT_TRUE(ex.wasAirborne());
+}
+
 TEST(PlanExecutor, HindWheelsCloseThePitchLoopOnlyOnTheHindWheels) {
   const model::RobotModel robot = loadRobot();
   const planner::JumpPlan plan = makePlan(0.0);

@@ -189,7 +189,10 @@ class PlanExecutor {
 
   /// Current phase.
   JumpPhase phase() const { return phase_; }
-  /// True once all wheels have been off the ground for airborne_debounce_s.
+  /// True once all wheels have been off the ground for airborne_debounce_s, unless a wheel
+  /// touched it again within the take-off phase: a hop in the push (a robot placed a few mm
+  /// off the ground by a measured start state, which falls or bounces at first) is not the
+  /// flight.
   bool wasAirborne() const { return airborne_; }
   /// Sets where the landing phase ends (see LandingHandover); without it the legs hold
   /// q_landing and the wheels brake to a stop. Real-time safe (a copy); call before the
