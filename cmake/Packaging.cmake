@@ -1,5 +1,6 @@
 # Installation rules and Debian packages (CPack DEB), one package per component:
-#   wheeljump-common          models (URDF + actuator table), the profile switch wheeljump-profile
+#   wheeljump-common          models (URDF + actuator table), the profile switch wheeljump-profile,
+#                             the jump executor's gains (config/jump_executor.yaml) per profile
 #   wheeljump-planner-server  planner_server, planner_cli, their profiles, the systemd unit
 #   wheeljump-robot-client    robot_client (when that target is built), its profiles, the unit
 # Build them with `cpack -G DEB` in the build folder, or `bash deploy/build-debs.sh`.
@@ -43,6 +44,9 @@ install(FILES ${WJ_DEPLOY_DIR}/systemd/wheeljump-planner-tls.conf
         DESTINATION ${CMAKE_INSTALL_DATADIR}/wheeljump/systemd COMPONENT common)
 foreach(profile ${WJ_PROFILES})
   install(DIRECTORY DESTINATION ${WJ_ETC_DIR}/profiles/${profile} COMPONENT common)
+  # The jump executor's gains, read by the robot client (its executor) and by the service's
+  # verifier (the executor it simulates): one file for both, the same in every profile.
+  wj_install_conffile(common ${WJ_CONFIG_DIR}/jump_executor.yaml ${WJ_ETC_DIR}/profiles/${profile})
 endforeach()
 
 # --- wheeljump-planner-server

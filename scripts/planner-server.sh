@@ -32,6 +32,7 @@ start_planner_server() {
   sed -e "s|^listen: .*|listen: \"127.0.0.1:${port}\"|" \
       -e "s|^  path: .*|  path: \"${cache}\"|" "${robot[@]}" \
       -e "s|^  settings_file: \"planner_settings.yaml\"|  settings_file: \"${WJ_PLANNER_SERVER_SH_DIR}/../config/planner_settings.yaml\"|" \
+      -e "s|^  jump_executor_file: \"jump_executor.yaml\"|  jump_executor_file: \"${WJ_PLANNER_SERVER_SH_DIR}/../config/jump_executor.yaml\"|" \
       "$WJ_PLANNER_SERVER_SH_DIR/../config/planner_server.yaml" > "$config"
   "$bin/planner_server" --config "$config" > "$log" 2>&1 &
   SERVER=$!

@@ -13,6 +13,7 @@
 #include "planner/planner_settings.h"
 #include "robot_model/robot_model.h"
 #include "server/config.h"
+#include "server/plan_verifier.h"
 #include "server/server_runner.h"
 
 int main(int argc, char** argv) {
@@ -43,8 +44,9 @@ int main(int argc, char** argv) {
   app.add_flag("--print-config", print_config, "print the effective configuration and exit");
   std::string check_path;
   app.add_option("--check-config", check_path,
-                 "read FILE with the strict reader, validate it, load the robot model and the "
-                 "planner settings it names, then exit: 0 valid, 2 not (TLS files and the "
+                 "read FILE with the strict reader, validate it, load the robot model, the "
+                 "planner settings and the verifier's files it names, then exit: 0 valid, 2 not "
+                 "(TLS files and the "
                  "cache folder are not checked: they belong to the machine)")
       ->excludes("--config");
   CLI11_PARSE(app, argc, argv);
@@ -56,6 +58,9 @@ int main(int argc, char** argv) {
       const auto robot = wj::model::RobotModel::loadDefault(config.actuators_file);
       if (!config.planner.settings_file.empty())
         (void)wj::planner::PlannerSettings::fromYaml(config.planner.settings_file);
+      // The verifier's files (sim settings, the robot client's jump executor) as it reads them.
+      if (config.verification.enabled && wj::server::simVerifierAvailable())
+        (void)wj::server::makeSimVerifier(robot, config.verification);
       std::cout << check_path << ": ok (listen " << config.listen << ", tls "
                 << wj::server::toString(config.tls.mode) << ", cache "
                 << (config.cache.backend == wj::server::CacheBackend::Redis

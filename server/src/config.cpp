@@ -342,6 +342,8 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
     auto& v = c.verification;
     r.read("enabled", v.enabled);
     r.read("sim_settings_file", v.sim_settings_file);
+    // Optional, so that the configurations written before it stay valid (absent: "").
+    if (r.has("jump_executor_file")) r.read("jump_executor_file", v.jump_executor_file);
     r.read("default_candidates", v.default_candidates);
     r.read("max_candidates", v.max_candidates);
     r.read("budget_fraction", v.budget_fraction);
@@ -430,7 +432,8 @@ ServerConfig ServerConfig::fromYamlFile(const std::filesystem::path& path) {
   ServerConfig c = fromYamlString(ss.str(), path.string());
   // A relative settings file is beside the configuration (a profile's folder), not in the
   // working directory of whoever starts the service.
-  for (std::string* file : {&c.planner.settings_file, &c.verification.sim_settings_file})
+  for (std::string* file : {&c.planner.settings_file, &c.verification.sim_settings_file,
+                            &c.verification.jump_executor_file})
     if (!file->empty() && std::filesystem::path(*file).is_relative())
       *file = (path.parent_path() / *file).lexically_normal().string();
   return c;
@@ -466,6 +469,7 @@ std::string ServerConfig::toYaml() const {
   o << "verification:\n"
     << "  enabled: " << flag(verification.enabled) << "\n"
     << "  sim_settings_file: " << quote(verification.sim_settings_file) << "\n"
+    << "  jump_executor_file: " << quote(verification.jump_executor_file) << "\n"
     << "  default_candidates: " << verification.default_candidates << "\n"
     << "  max_candidates: " << verification.max_candidates << "\n"
     << "  budget_fraction: " << num(verification.budget_fraction) << "\n"

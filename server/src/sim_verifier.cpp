@@ -5,6 +5,7 @@
 
 #include "server/cache_key.h"
 #include "server/plan_verifier.h"
+#include "sim/executor_settings_file.h"
 #include "sim/verifier.h"
 
 namespace wj::server {
@@ -59,9 +60,9 @@ class SimPlanVerifier final : public PlanVerifier {
   std::uint64_t settings_hash_;
 };
 
-std::string readFile(const std::string& path) {
+std::string readFile(const std::string& path, const std::string& key) {
   std::ifstream in(path);
-  if (!in) throw std::runtime_error("verification.sim_settings_file: cannot open " + path);
+  if (!in) throw std::runtime_error("verification." + key + ": cannot open " + path);
   std::stringstream ss;
   ss << in.rdbuf();
   return ss.str();
@@ -78,8 +79,14 @@ std::unique_ptr<PlanVerifier> makeSimVerifier(const model::RobotModel& robot,
   sim::VerifierSettings settings;
   std::string sim_text;
   if (!config.sim_settings_file.empty()) {
-    sim_text = readFile(config.sim_settings_file);
+    sim_text = readFile(config.sim_settings_file, "sim_settings_file");
     settings.sim = sim::parseSimSettings(sim_text, config.sim_settings_file);
+  }
+  // The robot client's executor (its gains decide how a plan flies, and so the verdict).
+  std::string executor_text;
+  if (!config.jump_executor_file.empty()) {
+    executor_text = readFile(config.jump_executor_file, "jump_executor_file");
+    settings.executor = sim::parseExecutorSettings(executor_text, config.jump_executor_file);
   }
   settings.model = config.sagittal_model ? sim::VerificationModel::SagittalWhenSymmetric
                                          : sim::VerificationModel::Full;

@@ -19,6 +19,7 @@
 #include "planner/plan_report.h"
 #include "planner/presets.h"
 #include "robot_model/momentum.h"
+#include "sim/executor_settings_file.h"
 #include "sim/statics.h"
 #include "sim/telemetry.h"
 #include "sim/verifier.h"
@@ -311,6 +312,11 @@ int main(int argc, char** argv) {
                  "actuator file of the robot (planner and simulation), in the models folder or a "
                  "path, e.g. actuators-57nm.yaml");
   app.add_option("--sim-config", sim_config, "simulation settings YAML (sim/config layout)");
+  std::string executor_path;
+  app.add_option("--executor", executor_path,
+                 "jump executor gains YAML (config/jump_executor.yaml layout: the robot client's, "
+                 "which the planning service verifies with); default: the executor's built-in "
+                 "gains");
   std::string plant_path;
   app.add_option("--plant", plant_path,
                  "plant file (YAML, every key optional): the simulated robot differs from the "
@@ -348,6 +354,7 @@ int main(int argc, char** argv) {
 
     sm::VerifierSettings vs;
     if (!sim_config.empty()) vs.sim = sm::loadSimSettings(sim_config);
+    if (!executor_path.empty()) vs.executor = sm::loadExecutorSettings(executor_path);
     const sm::PlantSettings plant =
         plant_path.empty() ? sm::PlantSettings{} : sm::loadPlantSettings(plant_path);
     vs.sim = sm::applyPlant(vs.sim, plant);

@@ -29,7 +29,8 @@ done
 for f in usr/bin/planner_server usr/bin/planner_cli usr/bin/wheeljump-profile \
   usr/share/wheeljump/models/wheeljump.urdf lib/systemd/system/wheeljump-planner.service \
   etc/wheeljump/profiles/nuc/planner_server.yaml etc/wheeljump/profiles/workstation/planner_server.yaml \
-  etc/wheeljump/profiles/nuc/planner_settings.yaml etc/wheeljump/profiles/workstation/planner_settings.yaml; do
+  etc/wheeljump/profiles/nuc/planner_settings.yaml etc/wheeljump/profiles/workstation/planner_settings.yaml \
+  etc/wheeljump/profiles/nuc/jump_executor.yaml etc/wheeljump/profiles/workstation/jump_executor.yaml; do
   [ -e "$root/$f" ] || fail "/$f is not installed"
 done
 # postinst of wheeljump-common selected the nuc profile.
@@ -58,6 +59,7 @@ done
 # file (a path relative to the profile) is named absolutely.
 sed -e "s|/var/lib/wheeljump-planner|$root/var/lib/wheeljump-planner|" \
   -e "s|^  settings_file: \"planner_settings.yaml\"|  settings_file: \"$root/etc/wheeljump/profiles/nuc/planner_settings.yaml\"|" \
+  -e "s|^  jump_executor_file: \"jump_executor.yaml\"|  jump_executor_file: \"$root/etc/wheeljump/profiles/nuc/jump_executor.yaml\"|" \
   "$root/etc/wheeljump/profiles/nuc/planner_server.yaml" >"$root/run-nuc.yaml"
 mkdir -p "$root/var/lib/wheeljump-planner"
 log="$root/run-nuc.log"
@@ -82,7 +84,7 @@ grep -q "planner_server stopped" "$log" || fail "no clean stop"
 if [ -e "$root/usr/bin/robot_client" ]; then
   "$root/usr/bin/robot_client" --help >/dev/null || fail "robot_client --help"
   for p in nuc workstation; do
-    for f in robot_client.env robot_client.yaml; do
+    for f in robot_client.env robot_client.yaml jump_executor.yaml; do
       [ -f "$root/etc/wheeljump/profiles/$p/$f" ] || fail "profile $p lacks $f"
     done
   done

@@ -134,6 +134,13 @@ def main():
     shipped = yaml.safe_load((Path(args.source_dir) / "config/planner_settings.yaml").read_text())
     need(yaml.safe_load(cm["data"].get("planner_settings.yaml", "")) == shipped,
          "the ConfigMap's planner_settings.yaml equals config/planner_settings.yaml")
+    # So is the verifier's executor (config/jump_executor.yaml, the robot client's gains).
+    executor = config["verification"].get("jump_executor_file")
+    need(executor == "jump_executor.yaml" and executor in cm["data"],
+         f"verification.jump_executor_file {executor!r} is the ConfigMap's jump_executor.yaml")
+    shipped = yaml.safe_load((Path(args.source_dir) / "config/jump_executor.yaml").read_text())
+    need(yaml.safe_load(cm["data"].get("jump_executor.yaml", "")) == shipped,
+         "the ConfigMap's jump_executor.yaml equals config/jump_executor.yaml")
     need(config["listen"].rsplit(":", 1)[1] == str(grpc_port), "config listen port = gRPC port")
     need(config["listen"].startswith("0.0.0.0:"), "config listens on the pod address")
     cache = config["cache"]

@@ -8,7 +8,9 @@
 #include <string>
 
 #include "error_of.h"
+#include "robot_model/robot_model.h"
 #include "server/config.h"
+#include "server/plan_verifier.h"
 
 namespace wj::server {
 namespace {
@@ -52,6 +54,48 @@ TEST(ServerConfig, SampleFileIsValidAndNucLike) {
   EXPECT_EQ(std::filesystem::path(c.planner.settings_file),
             (std::filesystem::path(WJ_CONFIG_DIR) / "planner_settings.yaml").lexically_normal());
   EXPECT_TRUE(std::filesystem::exists(c.planner.settings_file));
+  // So is the robot client's executor, which the verifier flies the plans with.
+  EXPECT_EQ(std::filesystem::path(c.verification.jump_executor_file),
+            (std::filesystem::path(WJ_CONFIG_DIR) / "jump_executor.yaml").lexically_normal());
+  EXPECT_TRUE(std::filesystem::exists(c.verification.jump_executor_file));
+}
+
+// The verifier flies plans with the robot client's executor file when the configuration names
+// one: a different controller is a different verdict, so the verifier's settings hash (the
+// cache's tag of stored verdicts) takes the file's text. Without the key: the built-in gains.
+TEST(ServerConfig, TheVerifierReadsTheJumpExecutorFileAndTagsItsVerdictsWithIt) {
+  const std::string base = ServerConfig{}.toYaml();
+  EXPECT_EQ(ServerConfig::fromYamlString(replaceLine(base, "  jump_executor_file:", ""), "<test>")
+                .verification.jump_executor_file,
+            "");
+  if (!simVerifierAvailable()) GTEST_SKIP() << "built without the sim component";
+  const model::RobotModel robot = model::RobotModel::loadDefault();
+  VerificationConfig v;
+  const std::uint64_t builtin = makeSimVerifier(robot, v)->settingsHash();
+  v.jump_executor_file = WJ_CONFIG_DIR "/jump_executor.yaml";
+  const std::uint64_t shipped = makeSimVerifier(robot, v)->settingsHash();
+  EXPECT_NE(shipped, builtin);
+  EXPECT_EQ(makeSimVerifier(robot, v)->settingsHash(), shipped);
+  // Another gain, another tag.
+  const auto dir = std::filesystem::temp_directory_path() / "wj_test_config_executor";
+  std::filesystem::create_directories(dir);
+  std::ifstream in(v.jump_executor_file);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string edited = replaceLine(text.str(), "flight_kp:", "flight_kp: 81.0");
+  std::ofstream(dir / "gains.yaml") << edited;
+  v.jump_executor_file = (dir / "gains.yaml").string();
+  EXPECT_NE(makeSimVerifier(robot, v)->settingsHash(), shipped);
+  // Errors name the key, the file and the field.
+  std::ofstream(dir / "bad.yaml") << replaceLine(edited, "flight_kd:", "flight_kd: -2.0");
+  v.jump_executor_file = (dir / "bad.yaml").string();
+  EXPECT_THAT(wj::test::errorOf<std::invalid_argument>(
+                  [&] { return makeSimVerifier(robot, v)->settingsHash(); }),
+              wj::test::HasSubstr("bad.yaml: executor settings: flight_kd"));
+  v.jump_executor_file = (dir / "absent.yaml").string();
+  EXPECT_THAT(wj::test::errorOf<std::runtime_error>(
+                  [&] { return makeSimVerifier(robot, v)->settingsHash(); }),
+              wj::test::HasSubstr("verification.jump_executor_file: cannot open"));
 }
 
 TEST(ServerConfig, RelativeSettingsFilesAreBesideTheConfigAndAbsoluteOnesUnchanged) {

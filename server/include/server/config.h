@@ -56,9 +56,12 @@ struct DeadlineConfig {
 struct VerificationConfig {
   bool enabled = true;            ///< verify plans in simulation (requires the sim component)
   std::string sim_settings_file;  ///< sim settings YAML; "" = the simulator's defaults
-  int default_candidates = 2;     ///< candidates verified when the request says 0, >= 1
-  int max_candidates = 8;         ///< requests asking for more are capped to this, >= 1
-  double budget_fraction = 0.4;   ///< share of the remaining time reserved for verification
+  /// The robot client's jump executor (config/jump_executor.yaml), which the verifier flies the
+  /// plans with; "" (or the key absent) = the executor's built-in defaults.
+  std::string jump_executor_file;
+  int default_candidates = 2;    ///< candidates verified when the request says 0, >= 1
+  int max_candidates = 8;        ///< requests asking for more are capped to this, >= 1
+  double budget_fraction = 0.4;  ///< share of the remaining time reserved for verification
   /// Verify symmetric plans on the sagittal model (sim::VerificationModel, docs/sim.md): the
   /// same verdicts at about 0.7 x the work; false: always the full 3-D model.
   bool sagittal_model = true;

@@ -56,7 +56,8 @@ class PlanVerifier {
 /// True if this build has the Simbody verifier (the sim component was built).
 bool simVerifierAvailable();
 /// The Simbody verifier with the configured settings and acceptance bounds; nullptr if the
-/// build has none. Throws std::runtime_error if the sim settings file is invalid.
+/// build has none. Throws std::runtime_error if the sim settings or jump executor file is
+/// unreadable or invalid (std::invalid_argument for an executor value out of range).
 std::unique_ptr<PlanVerifier> makeSimVerifier(const model::RobotModel& robot,
                                               const VerificationConfig& config);
 

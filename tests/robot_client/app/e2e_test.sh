@@ -32,15 +32,19 @@ trap cleanup EXIT
 PORT=${WJ_E2E_PORT:-$(( 52000 + RANDOM % 2000 ))}
 sed -e "s|^  deadline_s: .*|  deadline_s: 6.0|" \
     -e "s|wall: {enabled: true, x_m: 14.0|wall: {enabled: true, x_m: 20.0|" \
+    -e "s|^executor_file: jump_executor.yaml|executor_file: $SRC/config/jump_executor.yaml|" \
   "$SRC/config/robot_client.yaml" > "$WORK/client.yaml"
 grep -q "x_m: 20.0" "$WORK/client.yaml" || { echo "could not move the wall in the test config"; exit 1; }
 # platform_tuck: the platform without the leg placement for the measured pitch, whose tuck
 # passes a front wheel 2-3 cm over the platform's edge while the leg swings it up: that must
 # not count as the touchdown (docs/robot-client.md, the contact estimate).
 if [ "$CASE" = platform_tuck ]; then
-  sed -i -e "s|^  touchdown_pitch_placement: .*|  touchdown_pitch_placement: 0.0|" "$WORK/client.yaml"
-  grep -q "^  touchdown_pitch_placement: 0.0" "$WORK/client.yaml" ||
-    { echo "could not turn the leg placement off in the test config"; exit 1; }
+  # (In the client's executor file only: the service verifies with the shipped one.)
+  sed -e "s|^touchdown_pitch_placement: .*|touchdown_pitch_placement: 0.0|" \
+    "$SRC/config/jump_executor.yaml" > "$WORK/jump_executor.yaml"
+  grep -q "^touchdown_pitch_placement: 0.0" "$WORK/jump_executor.yaml" ||
+    { echo "could not turn the leg placement off in the test's executor file"; exit 1; }
+  sed -i -e "s|^executor_file: .*|executor_file: $WORK/jump_executor.yaml|" "$WORK/client.yaml"
 fi
 
 target="127.0.0.1:${PORT}"

@@ -16,6 +16,9 @@
 namespace wj::robot_client {
 namespace {
 
+// The texts below are the shipped configuration, edited: their executor_file is beside it.
+const std::string kOrigin = std::string(WJ_CONFIG_DIR) + "/robot_client.yaml";
+
 std::string shippedConfig() {
   std::ifstream in(std::string(WJ_CONFIG_DIR) + "/robot_client.yaml");
   std::stringstream s;
@@ -31,7 +34,7 @@ std::string replace(std::string text, const std::string& from, const std::string
 }
 
 TEST(ClientSettings, ShippedConfigParsesAndValidates) {
-  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   EXPECT_DOUBLE_EQ(s.loop.period_s, 0.001);
   EXPECT_DOUBLE_EQ(s.scenario("forward").run_up_speed_m_s, 3.0);
   EXPECT_DOUBLE_EQ(s.scenario("forward").wall_height_m, 0.25);
@@ -46,22 +49,20 @@ TEST(ClientSettings, ShippedConfigParsesAndValidates) {
 
 TEST(ClientSettings, UnknownKeyIsNamed) {
   const std::string text = replace(shippedConfig(), "  cpu: -1 ", "  cpu: -1\n  cpus: 2 ");
-  EXPECT_THAT(
-      test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, "x.yaml"); }),
-      test::HasSubstr("unknown key 'loop.cpus'"));
+  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
+              test::HasSubstr("unknown key 'loop.cpus'"));
 }
 
 TEST(ClientSettings, MissingKeyIsNamed) {
   const std::string text = replace(shippedConfig(), "  damping_kd: 1.5", "");
-  EXPECT_THAT(
-      test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, "x.yaml"); }),
-      test::HasSubstr("missing key 'safety.damping_kd'"));
+  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
+              test::HasSubstr("missing key 'safety.damping_kd'"));
 }
 
 TEST(ClientSettings, OutOfRangeValueNamesFieldAndRange) {
   const std::string text = replace(shippedConfig(), "period_s: 0.001", "period_s: 0.5");
   EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, "x.yaml"); }),
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); }),
       test::HasSubstr("loop.period_s must be in [0.0001, 0.01]"));
 }
 
@@ -76,59 +77,67 @@ TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
   } while (end != std::string::npos && config[end + 3] == ' ');
   std::string hop = config.substr(begin, end == std::string::npos ? end : end + 1 - begin);
   hop.replace(0, std::string("  vertical:").size(), "  hop:");
-  const std::size_t shipped = parseClientSettings(config, "x.yaml").scenarios.size();
-  const ClientSettings s = parseClientSettings(config + hop, "x.yaml");
+  const std::size_t shipped = parseClientSettings(config, kOrigin).scenarios.size();
+  const ClientSettings s = parseClientSettings(config + hop, kOrigin);
   ASSERT_EQ(s.scenarios.size(), shipped + 1);
   EXPECT_EQ(s.scenarios.back().name, "hop");
   EXPECT_EQ(s.scenario("hop").event, planner::TargetEvent::Apex);
   const std::string bad = replace(hop, "stand_s: 1.0", "stand_s: -1.0");
   EXPECT_THAT(test::errorOf<std::invalid_argument>(
-                  [&] { return parseClientSettings(config + bad, "x.yaml"); }),
+                  [&] { return parseClientSettings(config + bad, kOrigin); }),
               test::HasSubstr("scenarios.hop.stand_s"));
 }
 
 TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
   const std::string text = replace(shippedConfig(), "mode: roll_on", "mode: hover");
-  EXPECT_THAT(
-      test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, "x.yaml"); }),
-      test::HasSubstr("'hover' is not one of stop, roll_on"));
+  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
+              test::HasSubstr("'hover' is not one of stop, roll_on"));
   const std::string fast = replace(shippedConfig(), "speed_m_s: 3.0\n", "speed_m_s: 9.0\n");
-  EXPECT_THROW((void)parseClientSettings(fast, "x.yaml"), std::invalid_argument);
+  EXPECT_THROW((void)parseClientSettings(fast, kOrigin), std::invalid_argument);
 }
 
-TEST(ClientSettings, PlanRetriesTheWheelLawAndTheLandingFeedbacksAreReadAndBounded) {
-  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+TEST(ClientSettings, PlanRetriesAreReadAndBounded) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   EXPECT_EQ(s.planner.retries, 4);
-  EXPECT_DOUBLE_EQ(s.executor.touchdown_pitch_placement, 1.0);
-  EXPECT_DOUBLE_EQ(s.executor.landing_pitch_limit_rad, 0.4);
   const std::string many = replace(shippedConfig(), "  retries: 4 ", "  retries: 9 ");
   EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(many, "x.yaml"); }),
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(many, kOrigin); }),
       test::HasSubstr("planner.retries"));
-  EXPECT_DOUBLE_EQ(s.executor.takeoff_wheel_slip_band_m_s, 0.03);
-  EXPECT_DOUBLE_EQ(s.executor.tyre_rolling_radius_ratio, 0.99);
-  const std::string tyre =
-      replace(shippedConfig(), "tyre_rolling_radius_ratio: 0.99", "tyre_rolling_radius_ratio: 2.0");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(tyre, "x.yaml"); }),
-      test::HasSubstr("tyre_rolling_radius_ratio must be in [0.8, 1.2]"));
-  // The take-off's momentum feedback is read (off in the shipped file) and checked by name.
+}
+
+// The executor's gains are config/jump_executor.yaml, found beside the configuration (the file
+// the planning service's verifier reads too; its own reader is tested in tests/sim).
+TEST(ClientSettings, TheExecutorIsTheJumpExecutorFileBesideTheConfiguration) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
+  EXPECT_EQ(s.executor_file, std::string(WJ_CONFIG_DIR) + "/jump_executor.yaml");
+  const sim::ExecutorSettings file = sim::loadExecutorSettings(s.executor_file);
+  EXPECT_DOUBLE_EQ(s.executor.touchdown_pitch_placement, file.touchdown_pitch_placement);
+  EXPECT_DOUBLE_EQ(s.executor.flight_kp, file.flight_kp);
+  EXPECT_DOUBLE_EQ(s.executor.takeoff_momentum_kp, file.takeoff_momentum_kp);
+  EXPECT_DOUBLE_EQ(s.executor.two_step_flight_kp, file.two_step_flight_kp);
+  // The shipped gains: the leg placement at the plan's angle, no take-off momentum feedback.
+  EXPECT_DOUBLE_EQ(s.executor.touchdown_pitch_placement, 1.0);
   EXPECT_DOUBLE_EQ(s.executor.takeoff_momentum_kp, 0.0);
-  EXPECT_DOUBLE_EQ(s.executor.takeoff_momentum_max_nm, 40.0);
-  const std::string momentum =
-      replace(shippedConfig(), "takeoff_momentum_kd: 0.0", "takeoff_momentum_kd: -1.0");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(momentum, "x.yaml"); }),
-      test::HasSubstr("takeoff_momentum_kd"));
-  const std::string half =
-      replace(shippedConfig(), "touchdown_pitch_placement: 1.0", "touchdown_pitch_placement: 1.5");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(half, "x.yaml"); }),
-      test::HasSubstr("touchdown_pitch_placement"));
+  EXPECT_DOUBLE_EQ(s.executor.flight_kp, 80.0);
+  // Elsewhere: relative to another configuration's folder, or absolute.
+  EXPECT_THAT(test::errorOf<std::runtime_error>(
+                  [&] { return parseClientSettings(shippedConfig(), "/nonexistent/client.yaml"); }),
+              test::HasSubstr("cannot open /nonexistent/jump_executor.yaml"));
+  const std::string absolute =
+      replace(shippedConfig(), "executor_file: jump_executor.yaml",
+              "executor_file: " + std::string(WJ_CONFIG_DIR) + "/jump_executor.yaml");
+  EXPECT_EQ(parseClientSettings(absolute, "/nonexistent/client.yaml").executor_file,
+            s.executor_file);
+  // The inline section of the configurations before the file is refused by name.
+  const std::string inline_section =
+      replace(shippedConfig(), "executor_file: jump_executor.yaml", "executor:\n  flight_kp: 80.0");
+  EXPECT_THAT(test::errorOf<std::runtime_error>(
+                  [&] { return parseClientSettings(inline_section, kOrigin); }),
+              test::HasSubstr("executor_file"));
 }
 
 TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
-  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   EXPECT_TRUE(s.scenario("platform").landsOnWall());
   EXPECT_FALSE(s.scenario("forward").landsOnWall());
   EXPECT_FALSE(s.scenario("vertical").landsOnWall());
@@ -137,7 +146,7 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   // Landing on top of it needs a CoM height above its top.
   const std::string low = replace(shippedConfig(), "com_height_m: 0.519", "com_height_m: 0.26");
   EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(low, "x.yaml"); }),
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(low, kOrigin); }),
       test::HasSubstr("scenarios.platform.target.com_height_m"));
 }
 
@@ -151,7 +160,7 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
 // (the scenario's first form), 2.6 mm below z_land (0.26856 m), as if the wheels were to land
 // 2.6 mm below the ground.
 TEST(ClientSettings, TouchdownTargetsAreThePlannersLandingHeight) {
-  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   const planner::JumpPlanner planner(
       model::RobotModel::loadDefault(),
       planner::PlannerSettings::fromYaml(std::string(WJ_CONFIG_DIR) + "/planner_settings.yaml"));
@@ -171,11 +180,11 @@ TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {
   const std::string text =
       replace(shippedConfig(), "x_m: 14.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff",
               "x_m: 4.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff");
-  EXPECT_THROW((void)parseClientSettings(text, "x.yaml"), std::invalid_argument);
+  EXPECT_THROW((void)parseClientSettings(text, kOrigin), std::invalid_argument);
 }
 
 TEST(ClientSettings, ACourseListsItsWallsInOrder) {
-  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   const ScenarioSettings& course = s.scenario("course");
   ASSERT_EQ(course.wall_x_m.size(), 2u);
   EXPECT_DOUBLE_EQ(course.wallX(0), 14.0);
@@ -184,7 +193,7 @@ TEST(ClientSettings, ACourseListsItsWallsInOrder) {
   EXPECT_EQ(s.scenario("forward").jumps(), 1);
   EXPECT_EQ(s.scenario("vertical").jumps(), 1);
   const auto message = [](const std::string& text) -> std::string {
-    return test::errorOf([&] { return parseClientSettings(text, "x.yaml"); });
+    return test::errorOf([&] { return parseClientSettings(text, kOrigin); });
   };
   // Out of order (or too close to the previous wall's far face).
   EXPECT_THAT(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, 15.0]")),
@@ -196,7 +205,7 @@ TEST(ClientSettings, ACourseListsItsWallsInOrder) {
 }
 
 TEST(ClientSettings, TheBackflipIsATwoStepFullTurnOnTheRobotItNames) {
-  const ClientSettings s = parseClientSettings(shippedConfig(), "robot_client.yaml");
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   const ScenarioSettings& flip = s.scenario("backflip");
   EXPECT_EQ(flip.mode, planner::TakeoffMode::TwoStep);
   EXPECT_NEAR(flip.target_pitch_change_rad, 2.0 * M_PI, 1e-3);
@@ -225,10 +234,9 @@ TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
   const std::string anchor = "(issue 17, docs/backflip.md)\n    run_up_speed_m_s: ";
   const std::string back = shippedConfig();
   ASSERT_NE(back.find(anchor + "-1.0"), std::string::npos);
-  EXPECT_DOUBLE_EQ(parseClientSettings(back, "x.yaml").scenario("backflip").run_up_speed_m_s, -1.0);
+  EXPECT_DOUBLE_EQ(parseClientSettings(back, kOrigin).scenario("backflip").run_up_speed_m_s, -1.0);
   const auto message = [](const std::string& text) {
-    return test::errorOf<std::invalid_argument>(
-        [&] { return parseClientSettings(text, "x.yaml"); });
+    return test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); });
   };
   const std::string too_fast = replace(back, anchor + "-1.0", anchor + "-1.2");
   EXPECT_THAT(message(too_fast),
@@ -265,8 +273,7 @@ TEST(ClientRequest, SpeedIsClampedToThePlannersLowest) {
 // HFE and KFE replaced, the wheels and hip abductions untouched; one leg beyond the offset and
 // the measured angles go out unchanged. Without the key, nothing changes.
 TEST(ClientRequest, TheTakeoffPostureReplacesANearbyCrouch) {
-  const ScenarioSettings flip =
-      parseClientSettings(shippedConfig(), "robot_client.yaml").scenario("backflip");
+  const ScenarioSettings flip = parseClientSettings(shippedConfig(), kOrigin).scenario("backflip");
   ASSERT_TRUE(flip.has_takeoff_posture);
   EXPECT_DOUBLE_EQ(flip.takeoff_hfe_rad, 1.0);
   EXPECT_DOUBLE_EQ(flip.takeoff_kfe_rad, -2.0);
@@ -293,15 +300,14 @@ TEST(ClientRequest, TheTakeoffPostureReplacesANearbyCrouch) {
   EXPECT_EQ(q, before);
   // The forward scenario has none.
   q = measured;
-  EXPECT_FALSE(applyTakeoffPosture(
-      parseClientSettings(shippedConfig(), "robot_client.yaml").scenario("forward"), q));
+  EXPECT_FALSE(
+      applyTakeoffPosture(parseClientSettings(shippedConfig(), kOrigin).scenario("forward"), q));
   EXPECT_EQ(q, measured);
 }
 
 TEST(ClientSettings, TheTakeoffPostureIsBoundedAndComplete) {
   const auto message = [](const std::string& text) {
-    return test::errorOf<std::invalid_argument>(
-        [&] { return parseClientSettings(text, "x.yaml"); });
+    return test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); });
   };
   const std::string shipped = shippedConfig();
   const std::string far = replace(shipped, "max_offset_rad: 0.03", "max_offset_rad: 0.3");
@@ -316,7 +322,7 @@ TEST(ClientSettings, TheTakeoffPostureIsBoundedAndComplete) {
   const std::string missing = replace(shipped, "      hfe_rad: 1.0", "      hfe_radius: 1.0");
   ASSERT_NE(missing, shipped);
   EXPECT_THAT(
-      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, "x.yaml"); }),
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, kOrigin); }),
       test::HasSubstr("missing key 'scenarios.backflip.takeoff_posture.hfe_rad'"));
 }
 
@@ -324,16 +330,16 @@ TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
   const std::string on = replace(shippedConfig(), "    enabled: false\n    root_ca_file",
                                  "    enabled: true\n    root_ca_file");
   EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(on, "x.yaml"); }),
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(on, kOrigin); }),
       test::HasSubstr("planner.tls.root_ca_file"));
   const std::string cert_only =
       replace(shippedConfig(), "cert_file: \"\"", "cert_file: \"robot.pem\"");
-  EXPECT_THROW((void)parseClientSettings(cert_only, "x.yaml"), std::invalid_argument);
+  EXPECT_THROW((void)parseClientSettings(cert_only, kOrigin), std::invalid_argument);
   const std::string full =
       replace(replace(replace(on, "root_ca_file: \"\"", "root_ca_file: \"ca.pem\""),
                       "cert_file: \"\"", "cert_file: \"robot.pem\""),
               "key_file: \"\"", "key_file: \"robot.key\"");
-  const ClientSettings s = parseClientSettings(full, "x.yaml");
+  const ClientSettings s = parseClientSettings(full, kOrigin);
   EXPECT_TRUE(s.planner.tls);
   EXPECT_EQ(s.planner.tls_root_ca_file, "ca.pem");
   EXPECT_EQ(s.planner.tls_key_file, "robot.key");
@@ -341,9 +347,8 @@ TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
 
 TEST(ClientSettings, BadEnumListsTheChoices) {
   const std::string text = replace(shippedConfig(), "event: touchdown", "event: landing");
-  EXPECT_THAT(
-      test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, "x.yaml"); }),
-      test::HasSubstr("is not one of apex, touchdown"));
+  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
+              test::HasSubstr("is not one of apex, touchdown"));
 }
 
 }  // namespace

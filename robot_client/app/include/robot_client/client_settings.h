@@ -11,6 +11,7 @@
 
 #include "estimator/estimator_settings.h"
 #include "planner/jump_plan.h"
+#include "sim/executor_settings_file.h"
 #include "sim/plan_executor.h"
 
 namespace wj::robot_client {
@@ -187,7 +188,10 @@ struct ClientSettings {
   SafetySettings safety;
   ContactSettings contact;
   PlannerConnection planner;
-  sim::ExecutorSettings executor;  ///< take-off, flight and landing gains
+  /// Take-off, flight and landing gains, read from `executor_file` (YAML key; a relative path
+  /// is beside the configuration), which the planning service's verifier reads too.
+  sim::ExecutorSettings executor;
+  std::string executor_file;  ///< the file `executor` was read from, as resolved
   /// The state estimator's noises and limits (the estimator's defaults; docs/estimator.md).
   estimation::EstimatorSettings estimator;
   /// The scenarios of `scenarios:` in document order (forward, vertical, ...), each named by
@@ -200,8 +204,9 @@ struct ClientSettings {
   void validate() const;
 };
 
-/// Parses YAML text; `origin` names it in errors. Throws std::runtime_error on unknown or
-/// missing keys and std::invalid_argument on out-of-range values.
+/// Parses YAML text; `origin` names it in errors and is the path a relative `executor_file` is
+/// found beside. Throws std::runtime_error on unknown or missing keys or an unreadable executor
+/// file, and std::invalid_argument on out-of-range values.
 ClientSettings parseClientSettings(std::string_view yaml_text,
                                    const std::string& origin = "<text>");
 /// Reads and parses a file.
