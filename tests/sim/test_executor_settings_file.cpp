@@ -9,9 +9,12 @@
 
 #include "error_of.h"
 #include "sim/executor_settings_file.h"
+#include "text_edit.h"
 
 namespace wj::sim {
 namespace {
+
+using wj::test::replaceFirst;
 
 const std::filesystem::path kShipped = std::filesystem::path(WJ_CONFIG_DIR) / "jump_executor.yaml";
 
@@ -20,12 +23,6 @@ std::string shippedYaml() {
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return at == std::string::npos ? text : text.replace(at, from.size(), to);
 }
 
 TEST(ExecutorSettingsFile, ShippedFileIsReadAndValid) {
@@ -54,11 +51,11 @@ TEST(ExecutorSettingsFile, ShippedFileIsReadAndValid) {
 
 TEST(ExecutorSettingsFile, UnknownAndMissingKeysAreNamedWithTheFile) {
   const std::string unknown =
-      replace(shippedYaml(), "flight_kp: 80.0", "flight_kp: 80.0\nflight_kq: 1.0");
+      replaceFirst(shippedYaml(), "flight_kp: 80.0", "flight_kp: 80.0\nflight_kq: 1.0");
   EXPECT_THAT(
       test::errorOf<std::runtime_error>([&] { return parseExecutorSettings(unknown, "a.yaml"); }),
       test::HasSubstr("jump executor settings a.yaml: unknown key 'flight_kq'"));
-  const std::string missing = replace(shippedYaml(), "flight_kd: 2.0", "");
+  const std::string missing = replaceFirst(shippedYaml(), "flight_kd: 2.0", "");
   EXPECT_THAT(
       test::errorOf<std::runtime_error>([&] { return parseExecutorSettings(missing, "a.yaml"); }),
       test::HasSubstr("missing key 'flight_kd'"));
@@ -71,19 +68,19 @@ TEST(ExecutorSettingsFile, UnknownAndMissingKeysAreNamedWithTheFile) {
 }
 
 TEST(ExecutorSettingsFile, OutOfRangeValuesNameTheFieldAndTheFile) {
-  const std::string tyre =
-      replace(shippedYaml(), "tyre_rolling_radius_ratio: 0.99", "tyre_rolling_radius_ratio: 2.0");
+  const std::string tyre = replaceFirst(shippedYaml(), "tyre_rolling_radius_ratio: 0.99",
+                                        "tyre_rolling_radius_ratio: 2.0");
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseExecutorSettings(tyre, "a.yaml"); }),
       test::HasSubstr(
           "a.yaml: executor settings: tyre_rolling_radius_ratio must be in [0.8, 1.2]"));
   const std::string momentum =
-      replace(shippedYaml(), "takeoff_momentum_kd: 0.0", "takeoff_momentum_kd: -1.0");
+      replaceFirst(shippedYaml(), "takeoff_momentum_kd: 0.0", "takeoff_momentum_kd: -1.0");
   EXPECT_THAT(test::errorOf<std::invalid_argument>(
                   [&] { return parseExecutorSettings(momentum, "a.yaml"); }),
               test::HasSubstr("takeoff_momentum_kd"));
-  const std::string placement =
-      replace(shippedYaml(), "touchdown_pitch_placement: 1.0", "touchdown_pitch_placement: 1.5");
+  const std::string placement = replaceFirst(shippedYaml(), "touchdown_pitch_placement: 1.0",
+                                             "touchdown_pitch_placement: 1.5");
   EXPECT_THAT(test::errorOf<std::invalid_argument>(
                   [&] { return parseExecutorSettings(placement, "a.yaml"); }),
               test::HasSubstr("touchdown_pitch_placement"));

@@ -9,21 +9,18 @@
 
 #include "error_of.h"
 #include "sim/settings.h"
+#include "text_edit.h"
 
 namespace wj::sim {
 namespace {
+
+using wj::test::replaceFirst;
 
 std::string shippedYaml() {
   std::ifstream in(std::filesystem::path(WJ_SIM_CONFIG_DIR) / "sim_settings.yaml");
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();
-}
-
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return text.replace(at, from.size(), to);
 }
 
 TEST(SimSettings, ShippedFileEqualsDefaults) {
@@ -60,11 +57,11 @@ TEST(SimSettings, ShippedFileEqualsDefaults) {
 
 TEST(SimSettings, ParsesEnumsAndBoxes) {
   std::string yaml = shippedYaml();
-  yaml = replace(yaml, "kind: semi_explicit_euler ", "kind: runge_kutta_merson ");
-  yaml = replace(yaml, "wheel_shape: sphere", "wheel_shape: ellipsoid");
-  yaml = replace(yaml, "actuator_update: continuous", "actuator_update: zero_order_hold");
-  yaml = replace(yaml, "boxes: []",
-                 "boxes:\n    - {min: [0.5, -2, -1], max: [0.6, 2, 0.25], obstacle: true}");
+  yaml = replaceFirst(yaml, "kind: semi_explicit_euler ", "kind: runge_kutta_merson ");
+  yaml = replaceFirst(yaml, "wheel_shape: sphere", "wheel_shape: ellipsoid");
+  yaml = replaceFirst(yaml, "actuator_update: continuous", "actuator_update: zero_order_hold");
+  yaml = replaceFirst(yaml, "boxes: []",
+                      "boxes:\n    - {min: [0.5, -2, -1], max: [0.6, 2, 0.25], obstacle: true}");
   const SimSettings s = parseSimSettings(yaml);
   EXPECT_EQ(s.integrator.kind, IntegratorKind::RungeKuttaMerson);
   EXPECT_EQ(s.contact.wheel_shape, WheelShape::Ellipsoid);
@@ -80,15 +77,15 @@ TEST(SimSettings, RejectsUnknownMissingAndBadKeys) {
     return test::errorOf<std::runtime_error>([&] { return parseSimSettings(text, "test.yaml"); });
   };
   // A misspelled key is unknown (and the real one missing): never silently defaulted.
-  EXPECT_THAT(message(replace(yaml, "stiffness_pa:", "stifness_pa:")),
+  EXPECT_THAT(message(replaceFirst(yaml, "stiffness_pa:", "stifness_pa:")),
               test::HasSubstr("stifness_pa"));
-  EXPECT_THAT(message(replace(yaml, "  seed: 1\n", "")),
+  EXPECT_THAT(message(replaceFirst(yaml, "  seed: 1\n", "")),
               test::HasSubstr("missing key 'noise.seed'"));
-  EXPECT_THAT(message(replace(yaml, "wheel_shape: sphere", "wheel_shape: torus")),
+  EXPECT_THAT(message(replaceFirst(yaml, "wheel_shape: sphere", "wheel_shape: torus")),
               test::HasSubstr("torus"));
-  EXPECT_THAT(message(replace(yaml, "accuracy: 0.02", "accuracy: -1")),
+  EXPECT_THAT(message(replaceFirst(yaml, "accuracy: 0.02", "accuracy: -1")),
               test::HasSubstr("accuracy"));
-  EXPECT_THAT(message(replace(yaml, "max_step_s: 0.001", "max_step_s: 0.01")),
+  EXPECT_THAT(message(replaceFirst(yaml, "max_step_s: 0.001", "max_step_s: 0.01")),
               test::HasSubstr("max_step_s"));
   EXPECT_THAT(message(yaml + "extra: 1\n"), test::HasSubstr("unknown key 'extra'"));
   EXPECT_THAT(message("[1, 2]"), test::HasSubstr("expected a map"));

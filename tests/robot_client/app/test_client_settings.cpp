@@ -12,9 +12,12 @@
 #include "robot_client/client_settings.h"
 #include "robot_client/plan_requester.h"
 #include "robot_model/robot_model.h"
+#include "text_edit.h"
 
 namespace wj::robot_client {
 namespace {
+
+using wj::test::replaceFirst;
 
 // The texts below are the shipped configuration, edited: their executor_file is beside it.
 const std::string kOrigin = std::string(WJ_CONFIG_DIR) + "/robot_client.yaml";
@@ -24,13 +27,6 @@ std::string shippedConfig() {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-std::string replace(std::string text, const std::string& from, const std::string& to) {
-  const auto pos = text.find(from);
-  EXPECT_NE(pos, std::string::npos) << from;
-  if (pos != std::string::npos) text.replace(pos, from.size(), to);
-  return text;
 }
 
 TEST(ClientSettings, ShippedConfigParsesAndValidates) {
@@ -48,19 +44,19 @@ TEST(ClientSettings, ShippedConfigParsesAndValidates) {
 }
 
 TEST(ClientSettings, UnknownKeyIsNamed) {
-  const std::string text = replace(shippedConfig(), "  cpu: -1 ", "  cpu: -1\n  cpus: 2 ");
+  const std::string text = replaceFirst(shippedConfig(), "  cpu: -1 ", "  cpu: -1\n  cpus: 2 ");
   EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
               test::HasSubstr("unknown key 'loop.cpus'"));
 }
 
 TEST(ClientSettings, MissingKeyIsNamed) {
-  const std::string text = replace(shippedConfig(), "  damping_kd: 1.5", "");
+  const std::string text = replaceFirst(shippedConfig(), "  damping_kd: 1.5", "");
   EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
               test::HasSubstr("missing key 'safety.damping_kd'"));
 }
 
 TEST(ClientSettings, OutOfRangeValueNamesFieldAndRange) {
-  const std::string text = replace(shippedConfig(), "period_s: 0.001", "period_s: 0.5");
+  const std::string text = replaceFirst(shippedConfig(), "period_s: 0.001", "period_s: 0.5");
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); }),
       test::HasSubstr("loop.period_s must be in [0.0001, 0.01]"));
@@ -82,24 +78,24 @@ TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
   ASSERT_EQ(s.scenarios.size(), shipped + 1);
   EXPECT_EQ(s.scenarios.back().name, "hop");
   EXPECT_EQ(s.scenario("hop").event, planner::TargetEvent::Apex);
-  const std::string bad = replace(hop, "stand_s: 1.0", "stand_s: -1.0");
+  const std::string bad = replaceFirst(hop, "stand_s: 1.0", "stand_s: -1.0");
   EXPECT_THAT(test::errorOf<std::invalid_argument>(
                   [&] { return parseClientSettings(config + bad, kOrigin); }),
               test::HasSubstr("scenarios.hop.stand_s"));
 }
 
 TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
-  const std::string text = replace(shippedConfig(), "mode: roll_on", "mode: hover");
+  const std::string text = replaceFirst(shippedConfig(), "mode: roll_on", "mode: hover");
   EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
               test::HasSubstr("'hover' is not one of stop, roll_on"));
-  const std::string fast = replace(shippedConfig(), "speed_m_s: 3.0\n", "speed_m_s: 9.0\n");
+  const std::string fast = replaceFirst(shippedConfig(), "speed_m_s: 3.0\n", "speed_m_s: 9.0\n");
   EXPECT_THROW((void)parseClientSettings(fast, kOrigin), std::invalid_argument);
 }
 
 TEST(ClientSettings, PlanRetriesAreReadAndBounded) {
   const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   EXPECT_EQ(s.planner.retries, 4);
-  const std::string many = replace(shippedConfig(), "  retries: 4 ", "  retries: 9 ");
+  const std::string many = replaceFirst(shippedConfig(), "  retries: 4 ", "  retries: 9 ");
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(many, kOrigin); }),
       test::HasSubstr("planner.retries"));
@@ -124,13 +120,13 @@ TEST(ClientSettings, TheExecutorIsTheJumpExecutorFileBesideTheConfiguration) {
                   [&] { return parseClientSettings(shippedConfig(), "/nonexistent/client.yaml"); }),
               test::HasSubstr("cannot open /nonexistent/jump_executor.yaml"));
   const std::string absolute =
-      replace(shippedConfig(), "executor_file: jump_executor.yaml",
-              "executor_file: " + std::string(WJ_CONFIG_DIR) + "/jump_executor.yaml");
+      replaceFirst(shippedConfig(), "executor_file: jump_executor.yaml",
+                   "executor_file: " + std::string(WJ_CONFIG_DIR) + "/jump_executor.yaml");
   EXPECT_EQ(parseClientSettings(absolute, "/nonexistent/client.yaml").executor_file,
             s.executor_file);
   // The inline section of the configurations before the file is refused by name.
-  const std::string inline_section =
-      replace(shippedConfig(), "executor_file: jump_executor.yaml", "executor:\n  flight_kp: 80.0");
+  const std::string inline_section = replaceFirst(
+      shippedConfig(), "executor_file: jump_executor.yaml", "executor:\n  flight_kp: 80.0");
   EXPECT_THAT(test::errorOf<std::runtime_error>(
                   [&] { return parseClientSettings(inline_section, kOrigin); }),
               test::HasSubstr("executor_file"));
@@ -144,7 +140,8 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   EXPECT_TRUE(s.scenario("vertical").accept_closest_approach);
   EXPECT_FALSE(s.scenario("forward").accept_closest_approach);
   // Landing on top of it needs a CoM height above its top.
-  const std::string low = replace(shippedConfig(), "com_height_m: 0.519", "com_height_m: 0.26");
+  const std::string low =
+      replaceFirst(shippedConfig(), "com_height_m: 0.519", "com_height_m: 0.26");
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(low, kOrigin); }),
       test::HasSubstr("scenarios.platform.target.com_height_m"));
@@ -178,8 +175,8 @@ TEST(ClientSettings, TouchdownTargetsAreThePlannersLandingHeight) {
 
 TEST(ClientSettings, WallTooCloseForTheRunUpIsRefused) {
   const std::string text =
-      replace(shippedConfig(), "x_m: 14.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff",
-              "x_m: 4.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff");
+      replaceFirst(shippedConfig(), "x_m: 14.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff",
+                   "x_m: 4.0, thickness_m: 0.1, height_m: 0.25}\n    takeoff");
   EXPECT_THROW((void)parseClientSettings(text, kOrigin), std::invalid_argument);
 }
 
@@ -196,11 +193,11 @@ TEST(ClientSettings, ACourseListsItsWallsInOrder) {
     return test::errorOf([&] { return parseClientSettings(text, kOrigin); });
   };
   // Out of order (or too close to the previous wall's far face).
-  EXPECT_THAT(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, 15.0]")),
+  EXPECT_THAT(message(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, 15.0]")),
               test::HasSubstr("scenarios.course.wall.x_m[1]"));
-  EXPECT_THAT(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: []")),
+  EXPECT_THAT(message(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: []")),
               test::HasSubstr("scenarios.course.wall.x_m must name at least one wall"));
-  EXPECT_THAT(message(replace(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, far]")),
+  EXPECT_THAT(message(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, far]")),
               test::HasSubstr("course.wall.x_m' has the wrong type"));
 }
 
@@ -238,13 +235,13 @@ TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
   const auto message = [](const std::string& text) {
     return test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); });
   };
-  const std::string too_fast = replace(back, anchor + "-1.0", anchor + "-1.2");
+  const std::string too_fast = replaceFirst(back, anchor + "-1.0", anchor + "-1.2");
   EXPECT_THAT(message(too_fast),
               test::HasSubstr("scenarios.backflip.run_up_speed_m_s must be in [-1, 5]"))
       << message(too_fast);
   // Walls stand ahead: a forward scenario's wall with a backward run-up is refused.
   const std::string into_wall =
-      replace(shippedConfig(), "run_up_speed_m_s: 3.0", "run_up_speed_m_s: -0.5");
+      replaceFirst(shippedConfig(), "run_up_speed_m_s: 3.0", "run_up_speed_m_s: -0.5");
   ASSERT_NE(into_wall, shippedConfig());
   EXPECT_THAT(message(into_wall), test::HasSubstr("needs wall.enabled false"))
       << message(into_wall);
@@ -310,16 +307,16 @@ TEST(ClientSettings, TheTakeoffPostureIsBoundedAndComplete) {
     return test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); });
   };
   const std::string shipped = shippedConfig();
-  const std::string far = replace(shipped, "max_offset_rad: 0.03", "max_offset_rad: 0.3");
+  const std::string far = replaceFirst(shipped, "max_offset_rad: 0.03", "max_offset_rad: 0.3");
   ASSERT_NE(far, shipped);
   EXPECT_THAT(message(far),
               test::HasSubstr("scenarios.backflip.takeoff_posture.max_offset_rad must be in"))
       << message(far);
-  const std::string knee = replace(shipped, "      kfe_rad: -2.0", "      kfe_rad: -3.0");
+  const std::string knee = replaceFirst(shipped, "      kfe_rad: -2.0", "      kfe_rad: -3.0");
   ASSERT_NE(knee, shipped);
   EXPECT_THAT(message(knee), test::HasSubstr("takeoff_posture.kfe_rad must be in"))
       << message(knee);
-  const std::string missing = replace(shipped, "      hfe_rad: 1.0", "      hfe_radius: 1.0");
+  const std::string missing = replaceFirst(shipped, "      hfe_rad: 1.0", "      hfe_radius: 1.0");
   ASSERT_NE(missing, shipped);
   EXPECT_THAT(
       test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, kOrigin); }),
@@ -327,18 +324,18 @@ TEST(ClientSettings, TheTakeoffPostureIsBoundedAndComplete) {
 }
 
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
-  const std::string on = replace(shippedConfig(), "    enabled: false\n    root_ca_file",
-                                 "    enabled: true\n    root_ca_file");
+  const std::string on = replaceFirst(shippedConfig(), "    enabled: false\n    root_ca_file",
+                                      "    enabled: true\n    root_ca_file");
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(on, kOrigin); }),
       test::HasSubstr("planner.tls.root_ca_file"));
   const std::string cert_only =
-      replace(shippedConfig(), "cert_file: \"\"", "cert_file: \"robot.pem\"");
+      replaceFirst(shippedConfig(), "cert_file: \"\"", "cert_file: \"robot.pem\"");
   EXPECT_THROW((void)parseClientSettings(cert_only, kOrigin), std::invalid_argument);
   const std::string full =
-      replace(replace(replace(on, "root_ca_file: \"\"", "root_ca_file: \"ca.pem\""),
-                      "cert_file: \"\"", "cert_file: \"robot.pem\""),
-              "key_file: \"\"", "key_file: \"robot.key\"");
+      replaceFirst(replaceFirst(replaceFirst(on, "root_ca_file: \"\"", "root_ca_file: \"ca.pem\""),
+                                "cert_file: \"\"", "cert_file: \"robot.pem\""),
+                   "key_file: \"\"", "key_file: \"robot.key\"");
   const ClientSettings s = parseClientSettings(full, kOrigin);
   EXPECT_TRUE(s.planner.tls);
   EXPECT_EQ(s.planner.tls_root_ca_file, "ca.pem");
@@ -346,7 +343,7 @@ TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
 }
 
 TEST(ClientSettings, BadEnumListsTheChoices) {
-  const std::string text = replace(shippedConfig(), "event: touchdown", "event: landing");
+  const std::string text = replaceFirst(shippedConfig(), "event: touchdown", "event: landing");
   EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
               test::HasSubstr("is not one of apex, touchdown"));
 }
