@@ -6,9 +6,11 @@ source from the build context exists; the stages are Debian 12 ("bookworm"); the
 runs planner_server as a non-root user; COPY --from names an earlier stage; the build stage
 installs the dependencies with deploy/install-deps.sh and builds the release preset; every
 runtime package is a Debian 12 package name this machine's dpkg or apt knows (when apt lists
-are present).
+are present); every file the image's configuration names beside itself (the planner settings,
+the verifier's files) is copied beside it.
 """
 import argparse
+import posixpath
 import shlex
 import subprocess
 import sys
@@ -34,6 +36,30 @@ def instructions(text):
     return out
 
 
+def missing_config_files(root, copies):
+    """The image's configuration (the copy of config/planner_server.yaml) names its planner
+    settings and the verifier's files relative to itself: each must be copied beside it."""
+    import yaml
+    installed = {}  # path in the image -> source
+    for sources, dest in copies:
+        for s in sources:
+            target = dest + posixpath.basename(s) if dest.endswith("/") else dest
+            installed[target] = s
+    configs = [t for t, s in installed.items() if s.endswith("config/planner_server.yaml")]
+    if not configs:
+        return ["the runtime stage does not copy config/planner_server.yaml"]
+    config = yaml.safe_load((root / "config/planner_server.yaml").read_text())
+    named = [config["planner"].get("settings_file", ""),
+             config["verification"].get("sim_settings_file", ""),
+             config["verification"].get("jump_executor_file", "")]
+    errors = []
+    for name in (n for n in named if n and not posixpath.isabs(n)):
+        beside = posixpath.join(posixpath.dirname(configs[0]), name)
+        if beside not in installed:
+            errors.append(f"{configs[0]} names {name}, which is not copied to {beside}")
+    return errors
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--source-dir", required=True)
@@ -43,6 +69,7 @@ def main():
     errors = []
     stages, stage_users, final_entry = [], {}, None
     runtime_packages = []
+    final_copies = []  # (sources, destination) of the runtime stage's COPY --from
     text = path.read_text()
     for keyword, arg in instructions(text):
         if keyword == "FROM":
@@ -62,6 +89,7 @@ def main():
             if from_stage is not None:
                 if from_stage not in stages[:-1]:
                     errors.append(f"COPY --from={from_stage}: no earlier stage of that name")
+                final_copies.append((sources, paths[-1]))
                 continue
             for s in sources:
                 if not (root / s).exists():
@@ -96,6 +124,7 @@ def main():
         for p in runtime_packages:
             if p not in found:
                 errors.append(f"runtime package {p}: unknown to apt on this Debian machine")
+    errors += missing_config_files(root, final_copies)
     for e in errors:
         print("Containerfile:", e)
     if not errors:
