@@ -363,6 +363,7 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     source = PlanSource::WarmStart;
     warm_starts_.fetch_add(1);
   }
+  const std::string request_id = request.request_id;
   in.request = std::move(request);
 
   MissResult result = pipeline_.run(in);
@@ -377,6 +378,16 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     } catch (const std::exception& e) {
       spdlog::error("cache write failed (the entry stays in memory only): {}", e.what());
     }
+  }
+  // A plan the verifier refused is returned, but the robot should not fly it: say why, so
+  // that an operator sees it without replaying the request (docs/service.md, "Verification
+  // in the loop").
+  if (result.answer->verification.status == VerificationStatus::Failed) {
+    std::string why;
+    for (const std::string& r : result.answer->verification.failure_reasons)
+      why += (why.empty() ? "" : "; ") + r;
+    spdlog::info("request {}: plan {} refused by the verifier ({} candidates): {}", request_id,
+                 c->key.hex().substr(0, 16), result.answer->verification.candidates_verified, why);
   }
   if (result.solution)
     spdlog::debug("planned {} in {:.1f} ms ({} evaluations, feasible {}, verification {})",

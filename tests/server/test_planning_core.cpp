@@ -7,8 +7,13 @@
 #include <gtest/gtest.h>
 
 #include <future>
+#include <sstream>
 #include <thread>
 
+#include <spdlog/sinks/ostream_sink.h>
+#include <spdlog/spdlog.h>
+
+#include "error_of.h"
 #include "server/miss_pipeline.h"
 #include "server/planning_core.h"
 #include "server/solution_store.h"
@@ -223,7 +228,18 @@ TEST(PlanningCore, ReturnsTheBestVerifiedCandidate) {
     auto* v = new ScriptedVerifier;
     v->pass = [](const planner::JumpPlan&) { return false; };
     Fixture f(c, v);
-    const auto o = planSync(*f.core, request(0.5));
+    // The refusal is logged with the request id and the reasons (docs/service.md).
+    std::ostringstream log;
+    const auto before = spdlog::default_logger();
+    spdlog::set_default_logger(std::make_shared<spdlog::logger>(
+        "test", std::make_shared<spdlog::sinks::ostream_sink_mt>(log)));
+    PlanRequest refused = request(0.5);
+    refused.request_id = "jump-refused";
+    const auto o = planSync(*f.core, refused);
+    spdlog::set_default_logger(before);
+    EXPECT_THAT(log.str(), wj::test::HasSubstr("request jump-refused: plan "));
+    EXPECT_THAT(log.str(),
+                wj::test::HasSubstr("refused by the verifier (3 candidates): scripted failure\n"));
     expectAnswer(o);
     EXPECT_EQ(o.answer.verification.status, VerificationStatus::Failed);
     EXPECT_EQ(o.answer.verification.returned_candidate_rank, 0);
