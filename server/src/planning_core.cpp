@@ -363,7 +363,6 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     source = PlanSource::WarmStart;
     warm_starts_.fetch_add(1);
   }
-  const std::string request_id = request.request_id;
   in.request = std::move(request);
 
   MissResult result = pipeline_.run(in);
@@ -386,8 +385,9 @@ void PlanningCore::runComputation(const std::shared_ptr<Computation>& c) {
     std::string why;
     for (const std::string& r : result.answer->verification.failure_reasons)
       why += (why.empty() ? "" : "; ") + r;
-    spdlog::info("request {}: plan {} refused by the verifier ({} candidates): {}", request_id,
-                 c->key.hex().substr(0, 16), result.answer->verification.candidates_verified, why);
+    spdlog::info("request {}: plan {} refused by the verifier ({} candidates): {}",
+                 in.request.request_id, c->key.hex().substr(0, 16),
+                 result.answer->verification.candidates_verified, why);
   }
   if (result.solution)
     spdlog::debug("planned {} in {:.1f} ms ({} evaluations, feasible {}, verification {})",
