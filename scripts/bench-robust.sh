@@ -3,9 +3,9 @@
 # each on a simulated robot that differs from the model the planner, the NMPC and the
 # estimator assume: a plant drawn from the ranges below (docs/robot-client.md, "Robustness")
 # and passed as `robot_client --plant`. One planner_server on loopback serves every trial.
-# Prints one JSON document: the success rate, a failure taxonomy, the distribution of the
-# simulated wall clearance and the roll-on speed, and every failure's seed and plant, so that
-# it can be replayed:
+# Prints one JSON document: the success rate, a failure taxonomy, the distributions of the
+# simulated wall clearance, the roll-on speed and the rotation at touchdown against the plan's
+# (its last landing's), and every failure's seed and plant, so that it can be replayed:
 #   robot_client --backend sim --config config/robot_client.yaml --planner HOST:PORT \
 #     --scenario forward --seed SEED --plant failure.yaml
 # Usage: scripts/bench-robust.sh [build dir] [trials] [scenario] [first seed] [robot_client options...]
@@ -158,6 +158,11 @@ for i in range(trials):
            "roll_on_speed_m_s": sim.get("roll_on_speed_m_s"),
            "takeoff_speed_m_s": sim.get("takeoff_speed_m_s"),
            "apex_base_z_m": sim.get("apex_base_z_m"),
+           # Simbody's rotation at the (last) touchdown less the plan's prediction
+           "touchdown_rotation_error_rad": (
+               sim["touchdown_rotation_rad"] - d["plan"]["predicted_touchdown_rotation_rad"]
+               if sim.get("touchdown_rotation_rad") is not None and d["plan"].get(
+                   "predicted_touchdown_rotation_rad") is not None else None),
            "estimator_position_rms_m": sim.get("estimator_position_rms_m"),
            "estimator_position_max_m": sim.get("estimator_position_max_m"),
            "jump_clearances_m": sim.get("jump_wall_clearance_m"),
@@ -191,6 +196,8 @@ print(json.dumps({
     "hit_the_wall": sum(1 for r in jumped if r["clearance_m"] <= 0.0),
     "clearance_m": stats(r["clearance_m"] for r in jumped),  # trials that jumped
     "roll_on_speed_m_s": stats(r["roll_on_speed_m_s"] for r in rows),
+    "touchdown_rotation_error_rad": stats(r["touchdown_rotation_error_rad"] for r in rows
+                                          if r["jumped"]),
     "estimator_position_rms_m": stats(r["estimator_position_rms_m"] for r in rows),
     "estimator_position_max_m": stats(r["estimator_position_max_m"] for r in rows),
     "failures": failures, "trials_detail": rows}, indent=1))

@@ -20,6 +20,10 @@ check(d["trials"] == 1 and d["first_seed"] == 7, "trial count and seed")
 check(d["successes"] + sum(d["failure_taxonomy"].values()) == 1, "every trial classified once")
 row = d["trials_detail"][0]
 check(row["failure"] != "error", f"the trial did not run: {row['verdict']}")
+if row["jumped"]:
+    err = row["touchdown_rotation_error_rad"]
+    check(err is not None and abs(err) < 1.0, f"the touchdown rotation against the plan's: {err}")
+    check(d["touchdown_rotation_error_rad"]["median"] == err, "the rotation error's distribution")
 for f in d["failures"]:
     plant = yaml.safe_load(f["plant_yaml"])
     check(0.5 <= plant["friction"] <= 1.0, "friction drawn from its range")
