@@ -212,6 +212,7 @@ RunSummary RunRecorder::summarise(const ControlLoop& loop, const PlanRequester* 
     s.plan_target_height = info.target_height_m;
     if (info.feasible || !info.source.empty()) {
       s.planned_apex_base_z = info.predicted.apex.base_z;
+      s.planned_apex_com_z = info.predicted.apex.state.z;
       s.planned_clearance = info.predicted.min_obstacle_clearance;
       s.planned_touchdown_dx = info.predicted.touchdown.state.x;
       s.service_verified = info.simulated;
@@ -323,6 +324,7 @@ nlohmann::json RunSummary::toJson() const {
                {"summary", plan_summary},
                {"target_com_height_m", num(plan_target_height)},
                {"predicted_apex_base_z_m", num(planned_apex_base_z)},
+               {"predicted_apex_com_z_m", num(planned_apex_com_z)},
                {"predicted_clearance_m", num(planned_clearance)},
                {"predicted_touchdown_dx_m", num(planned_touchdown_dx)},
                {"predicted_liftoff_vx_m_s", num(planned_liftoff_vx)},
@@ -385,6 +387,7 @@ void RunSummary::printTable(std::ostream& out) const {
   row("", "planned/estimated", "simulated");
   row("speed at take-off [m/s]", fmt(takeoff_speed_est), fmt(truth.takeoff_speed));
   row("apex, base height [m]", fmt(planned_apex_base_z), fmt(truth.apex_base_z));
+  row("apex, CoM height [m]", fmt(planned_apex_com_z), fmt(truth.apex_com_z));
   if (scenario == "vertical") row("  (paper: 0.5 m on hardware,", "0.7 m target)", "");
   row("wall clearance [m]", fmt(planned_clearance),
       std::isfinite(truth.min_clearance) ? fmt(truth.min_clearance) : "-");

@@ -71,6 +71,7 @@ struct RunSummary {
   std::string plan_source, plan_verification, plan_summary;
   double plan_target_height = std::numeric_limits<double>::quiet_NaN();  ///< requested CoM z
   double planned_apex_base_z = std::numeric_limits<double>::quiet_NaN();
+  double planned_apex_com_z = std::numeric_limits<double>::quiet_NaN();  ///< CoM z at the apex
   double planned_clearance = std::numeric_limits<double>::quiet_NaN();
   double planned_touchdown_dx = std::numeric_limits<double>::quiet_NaN();
   /// The service's own verification (Simbody, from the plan's ideal initial state).
