@@ -33,8 +33,9 @@ TEST(ExecutorSettingsFile, ShippedFileIsReadAndValid) {
   const ExecutorSettings d;
   EXPECT_DOUBLE_EQ(s.takeoff_momentum_kp, 0.0);
   EXPECT_GT(d.takeoff_momentum_kp, 0.0);
-  EXPECT_DOUBLE_EQ(s.flight_kp, 80.0);
-  EXPECT_DOUBLE_EQ(s.flight_kd, 2.0);
+  EXPECT_DOUBLE_EQ(s.flight_kp, 200.0);
+  EXPECT_DOUBLE_EQ(s.flight_kd, 4.0);
+  EXPECT_LT(s.flight_kp, d.flight_kp);
   EXPECT_DOUBLE_EQ(s.touchdown_pitch_placement, 1.0);
   EXPECT_DOUBLE_EQ(s.landing_pitch_limit_rad, 0.4);
   EXPECT_DOUBLE_EQ(s.landing_pitch_kp, 40.0);
@@ -51,11 +52,11 @@ TEST(ExecutorSettingsFile, ShippedFileIsReadAndValid) {
 
 TEST(ExecutorSettingsFile, UnknownAndMissingKeysAreNamedWithTheFile) {
   const std::string unknown =
-      replaceFirst(shippedYaml(), "flight_kp: 80.0", "flight_kp: 80.0\nflight_kq: 1.0");
+      replaceFirst(shippedYaml(), "flight_kp: 200.0", "flight_kp: 200.0\nflight_kq: 1.0");
   EXPECT_THAT(
       test::errorOf<std::runtime_error>([&] { return parseExecutorSettings(unknown, "a.yaml"); }),
       test::HasSubstr("jump executor settings a.yaml: unknown key 'flight_kq'"));
-  const std::string missing = replaceFirst(shippedYaml(), "flight_kd: 2.0", "");
+  const std::string missing = replaceFirst(shippedYaml(), "flight_kd: 4.0", "");
   EXPECT_THAT(
       test::errorOf<std::runtime_error>([&] { return parseExecutorSettings(missing, "a.yaml"); }),
       test::HasSubstr("missing key 'flight_kd'"));

@@ -114,7 +114,7 @@ TEST(ClientSettings, TheExecutorIsTheJumpExecutorFileBesideTheConfiguration) {
   // The shipped gains: the leg placement at the plan's angle, no take-off momentum feedback.
   EXPECT_DOUBLE_EQ(s.executor.touchdown_pitch_placement, 1.0);
   EXPECT_DOUBLE_EQ(s.executor.takeoff_momentum_kp, 0.0);
-  EXPECT_DOUBLE_EQ(s.executor.flight_kp, 80.0);
+  EXPECT_DOUBLE_EQ(s.executor.flight_kp, 200.0);
   // Elsewhere: relative to another configuration's folder, or absolute.
   EXPECT_THAT(test::errorOf<std::runtime_error>(
                   [&] { return parseClientSettings(shippedConfig(), "/nonexistent/client.yaml"); }),
