@@ -112,8 +112,8 @@ else:
     check(sim["body_touched_ground"] is False, "the body touched the ground")
     # The apex: the CoM's (what the planner plans) within 2 cm, the base's within 3.5 cm (it
     # adds the legs' posture and the pitch at the apex). Measured, flight gains 200 / 4: the
-    # platform's CoM 1.2 cm and base 3.0 cm above the plan (80 / 2: base 2.9 cm), its lift-off
-    # 1.8 % faster upward than planned (docs/robust.md, "The flight gains").
+    # platform's CoM 1.2 cm and base 3.0 cm above the plan (80 / 2: base 2.9 cm): the service's
+    # plans have no unloading tail (docs/robust.md, "The flight gains").
     com_err = sim["apex_com_z_m"] - d["plan"]["predicted_apex_com_z_m"]
     check(abs(com_err) < 0.02, f"simulated CoM apex {100 * com_err:+.1f} cm from the plan")
     base_err = sim["apex_base_z_m"] - d["plan"]["predicted_apex_base_z_m"]
