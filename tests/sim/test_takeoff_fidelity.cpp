@@ -641,20 +641,56 @@ TEST(TakeoffFidelity, PresetsAgreeWithTheSimulation) {
     }
 }
 
+// The grid's cases: the presets at their own run-up speed (nullopt) and at two others.
+const std::vector<std::pair<std::string, std::optional<double>>> kGridCases = {
+    {"forward_hw", std::nullopt}, {"forward_hw", 2.0}, {"forward_hw", 3.3},
+    {"forward", std::nullopt},    {"forward", 2.5},    {"forward", 3.3},
+    {"vertical", std::nullopt},   {"vertical", 0.5},   {"vertical", 1.0}};
+
+// Issue 22's item 3 over the grid at seeds 1-5 (45 plans, about 2 s; the bench below prints
+// the same cases' figures): on every plan Simbody verifies, the lift-off CoM velocity within
+// 1 %, the CoM apex within 1 cm and the touchdown dx within 3 cm; the touchdown pitch within
+// 0.03 rad on at least 95 % of them and within 0.05 on every one (session 25: 38 of 40, the
+// others forward at 3.3 m/s, -0.035 and -0.038); the lift-off momentum of forward_hw and
+// vertical within 0.04 kg m^2/s of the plan's flight momentum (at most 0.035, forward_hw at
+// 3 m/s seed 4: 9 % of its |H|; within 3 % on 18 of the 45). Forward's is not bounded: its
+// flight momentum (-0.3 to +0.15 kg m^2/s) is too small for 3 %, and it misses by -0.03 to
+// -0.09 (docs/planner.md, "The tyre's lag"). At least 38 of the 45 plans verify (40 measured;
+// the others: forward_hw at 3.3 m/s, whose wheels reach their no-load speed, and two plans
+// that end infeasible or past a knee's torque).
+TEST(TakeoffFidelity, GridAgreesWithTheSimulation) {
+  int verified = 0, pitch_within = 0;
+  for (const auto& [task, v0] : kGridCases)
+    for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+      const Fidelity f = measure(task, v0, seed);
+      if (!f.passed) continue;
+      ++verified;
+      SCOPED_TRACE(task + " v0 " + std::to_string(f.v0) + " seed " + std::to_string(seed));
+      const double speed = std::hypot(f.vx_plan, f.vz_plan);
+      EXPECT_LE(std::hypot(f.vx_sim - f.vx_plan, f.vz_sim - f.vz_plan), 0.01 * speed);
+      EXPECT_LE(std::abs(f.apex_sim - f.apex_plan), 0.01);
+      EXPECT_LE(std::abs(f.td_dx_sim - f.td_dx_plan), 0.03);
+      const double pitch_error = std::abs(f.td_pitch_sim - f.td_pitch_plan);
+      EXPECT_LE(pitch_error, 0.05);
+      pitch_within += pitch_error <= 0.03;
+      if (task != "forward") {
+        EXPECT_LE(std::abs(f.h_sim - f.h_plan_flight), 0.04);
+      }
+    }
+  EXPECT_GE(verified, 38);
+  EXPECT_GE(pitch_within, 0.95 * verified) << pitch_within << " of " << verified;
+}
+
 // The grid of scripts/bench-takeoff-fidelity.sh (WJ_FIDELITY_BENCH=1; skipped otherwise):
-// seeds 1..WJ_FIDELITY_SEEDS (default 3) of the presets at their own speed and at others,
-// with the stance momentum if WJ_FIDELITY_STANCE_MOMENTUM=1.
+// seeds 1..WJ_FIDELITY_SEEDS (default 3) of kGridCases, with the stance momentum if
+// WJ_FIDELITY_STANCE_MOMENTUM=1.
 // Prints one JSON line per case; checks nothing but that each plan verifies in Simbody.
 TEST(TakeoffFidelity, BenchGrid) {
   const char* bench = std::getenv("WJ_FIDELITY_BENCH");
   if (!bench || std::string(bench) != "1") GTEST_SKIP() << "set WJ_FIDELITY_BENCH=1";
   const char* seeds_env = std::getenv("WJ_FIDELITY_SEEDS");
   const int seeds = seeds_env ? std::atoi(seeds_env) : 3;
-  const std::vector<std::pair<std::string, std::optional<double>>> cases = {
-      {"forward_hw", std::nullopt}, {"forward_hw", 2.0}, {"forward_hw", 3.3},
-      {"forward", std::nullopt},    {"forward", 2.5},    {"forward", 3.3},
-      {"vertical", std::nullopt},   {"vertical", 0.5},   {"vertical", 1.0}};
-  for (const auto& [task, v0] : cases)
+  for (const auto& [task, v0] : kGridCases)
     for (int seed = 1; seed <= seeds; ++seed)
       measure(task, v0, static_cast<std::uint64_t>(seed), stanceMomentumFromEnv());
 }
