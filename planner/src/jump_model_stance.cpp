@@ -1,7 +1,7 @@
 // The stance of the jump model: at each take-off sample, where the legs are (the wheels on
 // the ground, the base from the CoM and the posture-dependent CoM offset), their joint rates,
 // and the joint and wheel torques that balance the planned ground forces (docs/planner.md,
-// "Kinematics and statics").
+// "Where the base is").
 
 #include <algorithm>
 #include <cmath>

@@ -33,7 +33,8 @@ Scenario makePreset(const JumpPlanner& planner, const std::string& name, std::op
     // obstacle class); 1.9 m of CoM travel is what a 3 m/s run-up gives for a jump this high.
     // Touchdown 0.3 rad nose-up, hind wheels first: level (0 +- 0.25 rad) is out of reach in
     // this model (the front wheels cannot pull the nose down: normal force binds), and the
-    // multibody simulation lands the 0.3 rad touchdown upright (docs/planner.md, "Presets").
+    // multibody simulation lands the 0.3 rad touchdown upright (docs/planner.md, "What the
+    // presets give").
     sc.task.obstacle = BoxObstacle{1.2, 1.3, 0.25};
     sc.task.target = {1.9, z_land, 0.3, TargetEvent::Touchdown};
   } else if (name == "forward_hw") {
