@@ -2,8 +2,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include <fstream>
-#include <sstream>
+#include <optional>
 #include <stdexcept>
 
 #include "robot_model/strict_yaml.h"
@@ -79,11 +78,9 @@ ExecutorSettings parseExecutorSettings(std::string_view yaml_text, const std::st
 }
 
 ExecutorSettings loadExecutorSettings(const std::filesystem::path& yaml_file) {
-  std::ifstream in(yaml_file);
-  if (!in) throw std::runtime_error("jump executor settings: cannot open " + yaml_file.string());
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parseExecutorSettings(text.str(), yaml_file.string());
+  const std::optional<std::string> text = readSettingsText(yaml_file);
+  if (!text) throw std::runtime_error("jump executor settings: cannot open " + yaml_file.string());
+  return parseExecutorSettings(*text, yaml_file.string());
 }
 
 }  // namespace wj::sim

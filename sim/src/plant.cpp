@@ -3,9 +3,9 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
-#include <fstream>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -104,11 +104,9 @@ PlantSettings parsePlantSettings(std::string_view yaml_text, const std::string& 
 }
 
 PlantSettings loadPlantSettings(const std::filesystem::path& yaml_file) {
-  std::ifstream in(yaml_file);
-  if (!in) throw std::runtime_error("cannot read plant settings " + yaml_file.string());
-  std::stringstream text;
-  text << in.rdbuf();
-  return parsePlantSettings(text.str(), yaml_file.string());
+  const std::optional<std::string> text = readSettingsText(yaml_file);
+  if (!text) throw std::runtime_error("cannot read plant settings " + yaml_file.string());
+  return parsePlantSettings(*text, yaml_file.string());
 }
 
 std::string toYaml(const PlantSettings& p) {

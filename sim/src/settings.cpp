@@ -7,10 +7,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <fstream>
 #include <limits>
+#include <optional>
 #include <set>
-#include <sstream>
 #include <stdexcept>
 
 namespace wj::sim {
@@ -282,11 +281,9 @@ SimSettings parseSimSettings(std::string_view yaml_text, const std::string& orig
 }
 
 SimSettings loadSimSettings(const std::filesystem::path& yaml_file) {
-  std::ifstream in(yaml_file);
-  if (!in) throw std::runtime_error("sim settings: cannot open " + yaml_file.string());
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parseSimSettings(ss.str(), yaml_file.string());
+  const std::optional<std::string> text = readSettingsText(yaml_file);
+  if (!text) throw std::runtime_error("sim settings: cannot open " + yaml_file.string());
+  return parseSimSettings(*text, yaml_file.string());
 }
 
 }  // namespace wj::sim

@@ -2,7 +2,7 @@
 
 #include <array>
 #include <cmath>
-#include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -308,11 +308,9 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
 }
 
 ClientSettings loadClientSettings(const std::filesystem::path& yaml_file) {
-  std::ifstream in(yaml_file);
-  if (!in) throw std::runtime_error("cannot read robot client settings " + yaml_file.string());
-  std::stringstream text;
-  text << in.rdbuf();
-  return parseClientSettings(text.str(), yaml_file.string());
+  const std::optional<std::string> text = readSettingsText(yaml_file);
+  if (!text) throw std::runtime_error("cannot read robot client settings " + yaml_file.string());
+  return parseClientSettings(*text, yaml_file.string());
 }
 
 }  // namespace wj::robot_client

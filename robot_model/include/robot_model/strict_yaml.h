@@ -10,13 +10,27 @@
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <optional>
 #include <set>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
 namespace wj {
+
+/// The whole text of a settings file, or nothing when it cannot be opened (the caller's error
+/// names the file's role: "sim settings: cannot open ...").
+inline std::optional<std::string> readSettingsText(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  if (!in) return std::nullopt;
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 class StrictYamlMap {
  public:
