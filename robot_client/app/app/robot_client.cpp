@@ -83,6 +83,7 @@ int run(const Options& opt) {
   wj::nmpc::LocomotionSettings loco;
   loco.model.nominal_base_height_m = scenario.nmpc_base_height_m;
   loco.reference.base_height_m = scenario.nmpc_base_height_m;
+  loco.posture_integral = settings.posture_integral;
   wj::nmpc::LocomotionController controller(robot, loco);
 
   std::unique_ptr<rc::Backend> backend;

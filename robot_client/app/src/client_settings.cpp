@@ -202,6 +202,11 @@ void ClientSettings::validate() const {
   inRange(contact.max_rise_speed_m_s, 0.05, 5.0, "contact.max_rise_speed_m_s");
   inRange(contact.settle_s, 0.0, 1.0, "contact.settle_s");
   inRange(contact.traction_mu, 0.05, 2.0, "contact.traction_mu");
+  try {
+    posture_integral.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("robot client settings: nmpc.") + e.what());
+  }
   inRange(planner.deadline_s, 0.01, 60.0, "planner.deadline_s");
   inRange(planner.retries, 0.0, 5.0, "planner.retries");
   inRange(static_cast<double>(planner.max_evaluations), 0.0, 1e7, "planner.max_evaluations");
@@ -286,6 +291,17 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     s.planner.tls_key_file = tls.text("key_file");
     s.planner.tls_server_name = tls.text("server_name");
     tls.finish();
+    m.finish();
+  }
+  {
+    StrictYamlMap m = root.map("nmpc");
+    StrictYamlMap pi = m.map("posture_integral");
+    nmpc::PostureIntegralSettings& p = s.posture_integral;
+    p.gain_n_per_m_s = pi.number("gain_n_per_m_s");
+    p.max_force_n = pi.number("max_force_n");
+    p.band_m = pi.number("band_m");
+    p.max_step_s = pi.number("max_step_s");
+    pi.finish();
     m.finish();
   }
   // The executor's gains are a file of their own, which the planning service's verifier reads

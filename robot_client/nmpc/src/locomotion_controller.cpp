@@ -2,10 +2,22 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "nmpc/rotation.h"
 
 namespace wj::nmpc {
+
+void PostureIntegralSettings::validate() const {
+  const auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(std::string("posture_integral.") + what);
+  };
+  require(gain_n_per_m_s >= 0.0 && gain_n_per_m_s <= 1e5, "gain_n_per_m_s must be in [0, 1e5]");
+  require(max_force_n >= 0.0 && max_force_n <= 200.0, "max_force_n must be in [0, 200]");
+  require(band_m > 0.0 && band_m <= 0.2, "band_m must be in (0, 0.2]");
+  require(max_step_s > 0.0 && max_step_s <= 1.0, "max_step_s must be in (0, 1]");
+}
 
 LocomotionController::LocomotionController(const model::RobotModel& robot,
                                            const LocomotionSettings& settings)
@@ -17,11 +29,13 @@ LocomotionController::LocomotionController(const model::RobotModel& robot,
       targets_{GaitSchedule(settings.gait, Gait::Roll), TerrainPlane{}, ReferenceTrajectory{}},
       exchange_(solver_.numIntervals()),
       policy_(solver_.numIntervals()) {
+  settings_.posture_integral.validate();
   const CentroidalModel& m = model();
   for (int leg = 0; leg < kNumLegs; ++leg) {
     LegKinematics k;
     m.calcLegKinematics(leg, m.nominalJoints().segment<kLegDofs>(kLegDofs * leg), k);
     nominal_wheel_xy_[leg] = k.p_B.head<2>();
+    nominal_wheel_z_[leg] = k.p_B.z();
   }
 }
 
@@ -157,8 +171,38 @@ SqpStatus LocomotionController::updateMpc(double t, const State& x) {
 void LocomotionController::calcCommands(double t, const State& x, const model::SensorData& sensors,
                                         model::JointCommands& out) {
   exchange_.fetch(policy_);
-  whole_body_.calcCommands(t, policy_, x, sensors, policy_.calcContact(t), policy_.normal(), out,
-                           last_output_);
+  const ContactFlags contact = policy_.calcContact(t);
+  whole_body_.calcCommands(t, policy_, x, sensors, contact, policy_.normal(), out, last_output_);
+  addPostureIntegral(t, x, contact, sensors, out);
+}
+
+void LocomotionController::addPostureIntegral(double t, const State& x, const ContactFlags& contact,
+                                              const model::SensorData& sensors,
+                                              model::JointCommands& out) {
+  const PostureIntegralSettings& s = settings_.posture_integral;
+  if (s.gain_n_per_m_s == 0.0) return;
+  const double dt = t - posture_t_;
+  posture_t_ = t;
+  const bool integrate = dt > 0.0 && dt <= s.max_step_s &&
+                         std::all_of(contact.begin(), contact.end(), [](bool c) { return c; });
+  const CentroidalModel& m = model();
+  const Eigen::Vector3d up_B =
+      calcRotation(x.segment<3>(state_index::kTheta)).transpose() * Eigen::Vector3d::UnitZ();
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    if (!contact[leg]) continue;
+    Eigen::Vector3d q_leg;
+    for (int j = 0; j < kLegDofs; ++j) q_leg[j] = sensors.joints[robotJointIndex(leg, j)].q;
+    LegKinematics k;
+    m.calcLegKinematics(leg, q_leg, k);
+    // Compression: the wheel higher under the base than in the nominal posture.
+    const double e = k.p_B.z() - nominal_wheel_z_[leg];
+    double& f = posture_integral_[leg];
+    if (integrate && std::abs(e) <= s.band_m)
+      f = std::clamp(f + s.gain_n_per_m_s * dt * e, -s.max_force_n, s.max_force_n);
+    // The ground's extra push f (up) on the wheel: the joints' torques -J^T f.
+    const Eigen::Vector3d tau = -k.J.transpose() * (f * up_B);
+    for (int j = 0; j < kLegDofs; ++j) out[robotJointIndex(leg, j)].tau_ff += tau[j];
+  }
 }
 
 }  // namespace wj::nmpc

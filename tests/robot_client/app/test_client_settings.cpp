@@ -62,6 +62,20 @@ TEST(ClientSettings, OutOfRangeValueNamesFieldAndRange) {
       test::HasSubstr("loop.period_s must be in [0.0001, 0.01]"));
 }
 
+TEST(ClientSettings, TheLegsIntegralIsReadAndBounded) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
+  EXPECT_DOUBLE_EQ(s.posture_integral.gain_n_per_m_s, 1000.0);
+  EXPECT_DOUBLE_EQ(s.posture_integral.max_force_n, 40.0);
+  const std::string big = replaceFirst(shippedConfig(), "max_force_n: 40.0", "max_force_n: 400.0");
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(big, kOrigin); }),
+      test::HasSubstr("nmpc.posture_integral.max_force_n must be in [0, 200]"));
+  const std::string missing = replaceFirst(shippedConfig(), "    band_m: 0.05", "");
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, kOrigin); }),
+      test::HasSubstr("missing key 'nmpc.posture_integral.band_m'"));
+}
+
 TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
   const std::string config = shippedConfig();
   const auto begin = config.find("  vertical:");

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "estimator/estimator_settings.h"
+#include "nmpc/locomotion_controller.h"
 #include "planner/jump_plan.h"
 #include "sim/executor_settings_file.h"
 #include "sim/plan_executor.h"
@@ -194,6 +195,8 @@ struct ClientSettings {
   std::string executor_file;  ///< the file `executor` was read from, as resolved
   /// The state estimator's noises and limits (the estimator's defaults; docs/estimator.md).
   estimation::EstimatorSettings estimator;
+  /// The NMPC's integral on the base's attitude and height (YAML `nmpc.posture_integral`).
+  nmpc::PostureIntegralSettings posture_integral;
   /// The scenarios of `scenarios:` in document order (forward, vertical, ...), each named by
   /// its key; a new scenario is a new entry in the YAML, not new code.
   std::vector<ScenarioSettings> scenarios;

@@ -20,6 +20,29 @@
 
 namespace wj::nmpc {
 
+/// Integral action on the legs' support (offset-free standing and rolling). The NMPC's model is
+/// the nominal robot, and its forces and the inverse dynamics carry the nominal weight only: a
+/// payload or weaker drives leave the legs short of torque, and the joints' PD holds them
+/// where the missing torque is its error, with the base sagging (a 1.9 kg payload 18 cm
+/// forward and 10 cm left of the base's centre: 0.08 rad nose-down, 0.11 rad of roll, 1 cm
+/// low; docs/robot-client.md, "The legs' integral"). While every wheel is planned on the
+/// ground, each leg integrates how much its wheel sits higher under the base than in the
+/// nominal posture into a vertical force, which its joints add (-J^T f) while it is planned
+/// on the ground.
+struct PostureIntegralSettings {
+  double gain_n_per_m_s = 0.0;  ///< force rate per m of leg compression [N/(m s)]; 0: off
+  double max_force_n = 40.0;    ///< |integral force| of a leg at most [N]
+  /// A leg further than this from its nominal length (a landing, a push) holds its integral
+  /// [m].
+  double band_m = 0.05;
+  /// Control periods further apart than this (after a pause, e.g. a jump) are not integrated
+  /// [s].
+  double max_step_s = 0.05;
+
+  /// Throws std::invalid_argument naming the field when a value is out of range.
+  void validate() const;
+};
+
 /// Everything that configures the locomotion controller.
 struct LocomotionSettings {
   CentroidalModelSettings model;  ///< centroidal model
@@ -35,8 +58,9 @@ struct LocomotionSettings {
   /// With boxes: move a touchdown off the hip (by the leg's joint reference) when the wheel
   /// would land on a box's edge or roll into its face during the following stance.
   bool adapt_footholds = true;
-  double max_foothold_offset_m = 0.15;   ///< largest touchdown shift along the heading [m]
-  double foothold_edge_margin_m = 0.03;  ///< clearance of the wheel from a box edge [m]
+  double max_foothold_offset_m = 0.15;       ///< largest touchdown shift along the heading [m]
+  double foothold_edge_margin_m = 0.03;      ///< clearance of the wheel from a box edge [m]
+  PostureIntegralSettings posture_integral;  ///< off by default (gains 0)
 };
 
 /// See the file comment.
@@ -76,6 +100,8 @@ class LocomotionController {
   const Targets& targets() const { return targets_; }
   /// Diagnostics of the last calcCommands().
   const WholeBodyOutput& lastOutput() const { return last_output_; }
+  /// The legs' integral forces, upward in the world, per leg [N] (loop thread).
+  const std::array<double, kNumLegs>& postureIntegral() const { return posture_integral_; }
 
  private:
   // Terrain plane and heights of the swings for this cycle.
@@ -85,6 +111,10 @@ class LocomotionController {
   // Shift along the heading of a touchdown planned at p that keeps the wheel off box edges
   // and box faces over a stance in which it rolls `stance_travel` [m].
   double calcFootholdShift(const Eigen::Vector3d& p, double stance_travel) const;
+  // The legs' integral (PostureIntegralSettings): updated from the measured joints, added to
+  // the commands of the legs planned on the ground.
+  void addPostureIntegral(double t, const State& x, const ContactFlags& contact,
+                          const model::SensorData& sensors, model::JointCommands& out);
 
   LocomotionSettings settings_;
   TerrainPlane terrain_;
@@ -100,6 +130,9 @@ class LocomotionController {
   PolicyExchange exchange_;
   Policy policy_;
   WholeBodyOutput last_output_;
+  std::array<double, kNumLegs> nominal_wheel_z_{};   // wheel centre below the base, in B [m]
+  std::array<double, kNumLegs> posture_integral_{};  // loop thread
+  double posture_t_ = -1e300;                        // the last control period's time
 };
 
 }  // namespace wj::nmpc
