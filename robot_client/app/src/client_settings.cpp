@@ -302,6 +302,7 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     p.band_m = pi.number("band_m");
     p.max_step_s = pi.number("max_step_s");
     pi.finish();
+    s.jump_leg_support = m.flag("jump_leg_support");
     m.finish();
   }
   // The executor's gains are a file of their own, which the planning service's verifier reads

@@ -260,7 +260,10 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
     // wall: the front wheels hit its edge).
     bool any_contact = ex != nullptr && ex->phase() == sim::JumpPhase::Takeoff;
     for (bool c : contact_) any_contact = any_contact || c;
-    if (ex != nullptr) ex->update(t_ - takeoff_t_, sensors_, any_contact, commands_);
+    if (ex != nullptr) {
+      ex->update(t_ - takeoff_t_, sensors_, any_contact, commands_);
+      if (settings_.jump_leg_support) addJumpLegSupport(*ex);
+    }
     return;
   }
   // NMPC modes (also after a landing: the landing phase ended in the NMPC's own posture): the MPC
@@ -284,6 +287,30 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
     return;
   }
   controller_.calcCommands(t_, x_, sensors_, commands_);
+}
+
+void ControlLoop::addJumpLegSupport(const sim::PlanExecutor& ex) {
+  // What the legs' integral learnt while rolling (a payload's share of each leg, the drives'
+  // shortfall) carried into the jump: in the push scaled by the plan's vertical load, (a_z + g)
+  // / g from its CoM (a payload accelerates with the body), on the legs the plan keeps down
+  // (a two-step take-off lifts the front pair at t1); in the landing as learnt, on the legs on
+  // the ground. Not in flight.
+  const double t = t_ - takeoff_t_;
+  const double g = controller_.model().settings().gravity_m_s2;
+  nmpc::ContactFlags legs{};
+  double scale = 0.0;
+  if (ex.phase() == sim::JumpPhase::Takeoff) {
+    const planner::JumpPlan& plan = requester_->plan();
+    const int k = std::clamp(static_cast<int>(t / plan.dt), 0, plan.numSamples() - 2);
+    const double a_z = (plan.centroidal[k + 1].vz - plan.centroidal[k].vz) / plan.dt;
+    scale = std::max(0.0, (a_z + g) / g);
+    for (int leg = 0; leg < nmpc::kNumLegs; ++leg)
+      legs[leg] = !model::isFront(static_cast<model::Leg>(leg)) || t < plan.t1;
+  } else if (ex.phase() == sim::JumpPhase::Landing) {
+    scale = 1.0;
+    for (int leg = 0; leg < nmpc::kNumLegs; ++leg) legs[leg] = contact_[leg];
+  }
+  if (scale > 0.0) controller_.addLegSupport(x_, sensors_, legs, scale, commands_);
 }
 
 void ControlLoop::applySafety() {

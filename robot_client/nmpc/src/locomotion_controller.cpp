@@ -185,22 +185,34 @@ void LocomotionController::addPostureIntegral(double t, const State& x, const Co
   posture_t_ = t;
   const bool integrate = dt > 0.0 && dt <= s.max_step_s &&
                          std::all_of(contact.begin(), contact.end(), [](bool c) { return c; });
-  const CentroidalModel& m = model();
-  const Eigen::Vector3d up_B =
-      calcRotation(x.segment<3>(state_index::kTheta)).transpose() * Eigen::Vector3d::UnitZ();
   for (int leg = 0; leg < kNumLegs; ++leg) {
-    if (!contact[leg]) continue;
+    if (!contact[leg] || !integrate) continue;
     Eigen::Vector3d q_leg;
     for (int j = 0; j < kLegDofs; ++j) q_leg[j] = sensors.joints[robotJointIndex(leg, j)].q;
     LegKinematics k;
-    m.calcLegKinematics(leg, q_leg, k);
+    model().calcLegKinematics(leg, q_leg, k);
     // Compression: the wheel higher under the base than in the nominal posture.
     const double e = k.p_B.z() - nominal_wheel_z_[leg];
     double& f = posture_integral_[leg];
-    if (integrate && std::abs(e) <= s.band_m)
+    if (std::abs(e) <= s.band_m)
       f = std::clamp(f + s.gain_n_per_m_s * dt * e, -s.max_force_n, s.max_force_n);
+  }
+  addLegSupport(x, sensors, contact, 1.0, out);
+}
+
+void LocomotionController::addLegSupport(const State& x, const model::SensorData& sensors,
+                                         const ContactFlags& legs, double scale,
+                                         model::JointCommands& out) const {
+  const Eigen::Vector3d up_B =
+      calcRotation(x.segment<3>(state_index::kTheta)).transpose() * Eigen::Vector3d::UnitZ();
+  for (int leg = 0; leg < kNumLegs; ++leg) {
+    if (!legs[leg] || posture_integral_[leg] == 0.0) continue;
+    Eigen::Vector3d q_leg;
+    for (int j = 0; j < kLegDofs; ++j) q_leg[j] = sensors.joints[robotJointIndex(leg, j)].q;
+    LegKinematics k;
+    model().calcLegKinematics(leg, q_leg, k);
     // The ground's extra push f (up) on the wheel: the joints' torques -J^T f.
-    const Eigen::Vector3d tau = -k.J.transpose() * (f * up_B);
+    const Eigen::Vector3d tau = -k.J.transpose() * (scale * posture_integral_[leg] * up_B);
     for (int j = 0; j < kLegDofs; ++j) out[robotJointIndex(leg, j)].tau_ff += tau[j];
   }
 }

@@ -66,6 +66,7 @@ TEST(ClientSettings, TheLegsIntegralIsReadAndBounded) {
   const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   EXPECT_DOUBLE_EQ(s.posture_integral.gain_n_per_m_s, 1000.0);
   EXPECT_DOUBLE_EQ(s.posture_integral.max_force_n, 40.0);
+  EXPECT_TRUE(s.jump_leg_support);
   const std::string big = replaceFirst(shippedConfig(), "max_force_n: 40.0", "max_force_n: 400.0");
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(big, kOrigin); }),

@@ -195,8 +195,11 @@ struct ClientSettings {
   std::string executor_file;  ///< the file `executor` was read from, as resolved
   /// The state estimator's noises and limits (the estimator's defaults; docs/estimator.md).
   estimation::EstimatorSettings estimator;
-  /// The NMPC's integral on the base's attitude and height (YAML `nmpc.posture_integral`).
+  /// The legs' integral of the NMPC (YAML `nmpc.posture_integral`).
   nmpc::PostureIntegralSettings posture_integral;
+  /// A jump's push and landing add what the legs' integral learnt while rolling (YAML
+  /// `nmpc.jump_leg_support`; the push scaled by the plan's vertical load).
+  bool jump_leg_support = false;
   /// The scenarios of `scenarios:` in document order (forward, vertical, ...), each named by
   /// its key; a new scenario is a new entry in the YAML, not new code.
   std::vector<ScenarioSettings> scenarios;

@@ -96,6 +96,8 @@ class ControlLoop {
   void senseRange();
   void updateContacts();
   void computeCommands(const FsmOutput& out);
+  // The legs' integral carried into a jump's push and landing (ClientSettings::jump_leg_support).
+  void addJumpLegSupport(const sim::PlanExecutor& ex);
   void applySafety();
   void postPlanRequest();
   // The executor of the requested plan, or null.

@@ -100,6 +100,11 @@ class LocomotionController {
   const Targets& targets() const { return targets_; }
   /// Diagnostics of the last calcCommands().
   const WholeBodyOutput& lastOutput() const { return last_output_; }
+  /// Adds the legs' integral forces times `scale` to the joint commands of the legs in `legs`
+  /// (-J^T f, the measured joints and the attitude of x); what a jump's take-off and landing
+  /// carry of what the integral learnt while rolling. Loop thread; no allocation.
+  void addLegSupport(const State& x, const model::SensorData& sensors, const ContactFlags& legs,
+                     double scale, model::JointCommands& out) const;
   /// The legs' integral forces, upward in the world, per leg [N] (loop thread).
   const std::array<double, kNumLegs>& postureIntegral() const { return posture_integral_; }
 
