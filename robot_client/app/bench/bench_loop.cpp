@@ -114,7 +114,10 @@ int main(int argc, char** argv) {
 
   const wj::model::RobotModel robot = wj::model::RobotModel::loadDefault();
   const rc::ClientSettings settings = rc::loadClientSettings(config);
-  wj::nmpc::LocomotionController controller(robot, wj::nmpc::LocomotionSettings{});
+  // The NMPC's defaults with the configuration's legs' integral (robot_client's own setup).
+  wj::nmpc::LocomotionSettings loco;
+  loco.posture_integral = settings.posture_integral;
+  wj::nmpc::LocomotionController controller(robot, loco);
   NoopRobot noop(standingSensors(controller));
   rc::MpcWorker mpc(controller, settings.loop.mpc_period_s, /*lockstep=*/false);
   rc::ScenarioSettings scenario = settings.scenario("forward");
