@@ -38,6 +38,15 @@ void report(const char* name, const LoopResult& r) {
       r.mpc_wall_ms.empty() ? 0.0 : *std::max_element(r.mpc_wall_ms.begin(), r.mpc_wall_ms.end()));
 }
 
+// From standing, at 0.5 s, to 3 m/s at 1.5 m/s^2 (the robot client's run-up to a jump).
+SpeedCommand runUpToThreeMetresPerSecond() {
+  SpeedCommand command;
+  command.t_start_s = 0.5;
+  command.v_target_m_s = 3.0;
+  command.acceleration_m_s2 = 1.5;
+  return command;
+}
+
 class ClosedLoop : public ::testing::Test {
  protected:
   model::RobotModel robot_ = test::loadRobot();
@@ -62,11 +71,7 @@ TEST_F(ClosedLoop, StandsStill) {
 
 TEST_F(ClosedLoop, AcceleratesByRollingToThreeMetresPerSecondAndHoldsIt) {
   LocomotionController c(robot_, settings_);
-  SpeedCommand command;
-  command.t_start_s = 0.5;
-  command.v_target_m_s = 3.0;
-  command.acceleration_m_s2 = 1.5;
-  c.setSpeedCommand(command);
+  c.setSpeedCommand(runUpToThreeMetresPerSecond());
   const sim::SimSettings sim;
   const double T = 5.0;
   const LoopResult r = sim_loop::runClosedLoop(robot_, c, sim, T, kMpcPeriod, 0.0,
@@ -108,11 +113,7 @@ TEST_F(ClosedLoop, PostureIntegralLevelsARobotWithAnOffCentrePayload) {
     settings.reference.base_height_m = 0.30;
     settings.posture_integral.gain_n_per_m_s = gain;
     LocomotionController c(robot_, settings);
-    SpeedCommand command;
-    command.t_start_s = 0.5;
-    command.v_target_m_s = 3.0;
-    command.acceleration_m_s2 = 1.5;
-    c.setSpeedCommand(command);
+    c.setSpeedCommand(runUpToThreeMetresPerSecond());
     const LoopResult r = sim_loop::runClosedLoop(robot_, c, sim, T, kMpcPeriod, 0.0,
                                                  [](double, LocomotionController&) {});
     EXPECT_FALSE(r.fell) << "at " << r.fell_at;
