@@ -15,6 +15,8 @@
 # WJ_FIDELITY_REFERENCE_INTEGRATOR=1: Simbody with its reference integrator (Runge-Kutta-Merson
 # at 1e-5) in place of the verifier's 1 ms semi-explicit Euler step; the difference between
 # the two runs is the simulation's own error on each figure.
+# WJ_FIDELITY_CONTACT_STIFFNESS=<Pa>: Simbody's contact modulus in place of 8e6.
+# WJ_FIDELITY_TAKEOFF_GAINS=kp,kd: the take-off's joint gains in place of 150,3.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}

@@ -15,11 +15,13 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <iomanip>
 #include <iostream>
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -385,6 +387,8 @@ bool stanceMomentumFromEnv() {
 /// reference integrator only: the 1 ms step chatters, docs/sim.md "Integrator").
 /// WJ_FIDELITY_CONTACT_STIFFNESS: the contact's plane-strain modulus [Pa] in place of 8e6 (how
 /// much of the gap is the tyre's compliance, docs/planner.md "The tyre's lag").
+/// WJ_FIDELITY_TAKEOFF_GAINS="kp,kd": the take-off's joint gains in place of 150, 3 (how much of
+/// the gap is the joints' tracking, docs/takeoff-fidelity.md "Stiffer tracking").
 VerifierSettings verifierSettings() {
   const char* reference = std::getenv("WJ_FIDELITY_REFERENCE_INTEGRATOR");
   VerifierSettings s = reference && std::string(reference) == "1" ? VerifierSettings::reference()
@@ -398,6 +402,14 @@ VerifierSettings verifierSettings() {
     s.executor.takeoff_wheel_slip_band_m_s = 0.0;
     s.executor.tyre_slip_stiffness_n_s_m = std::numeric_limits<double>::max();
     s.executor.tyre_rolling_radius_ratio = 1.0;
+  }
+  if (const char* g = std::getenv("WJ_FIDELITY_TAKEOFF_GAINS")) {
+    const char* comma = std::strchr(g, ',');
+    if (comma == nullptr)
+      throw std::invalid_argument("WJ_FIDELITY_TAKEOFF_GAINS must be 'kp,kd', got '" +
+                                  std::string(g) + "'");
+    s.executor.takeoff_kp = std::stod(g);
+    s.executor.takeoff_kd = std::stod(comma + 1);
   }
   const char* open = std::getenv("WJ_FIDELITY_OPEN_LOOP");
   if (open && std::string(open) == "1") {
