@@ -176,6 +176,28 @@ void LocomotionController::calcCommands(double t, const State& x, const model::S
   addPostureIntegral(t, x, contact, sensors, out);
 }
 
+namespace {
+
+// The measured HAA, HFE and KFE of `leg`.
+Eigen::Vector3d measuredLegJoints(const model::SensorData& sensors, int leg) {
+  Eigen::Vector3d q;
+  for (int j = 0; j < kLegDofs; ++j) q[j] = sensors.joints[robotJointIndex(leg, j)].q;
+  return q;
+}
+
+// The ground's extra push `f_B` (in B) on the wheel of `leg`: its joints' torques -J^T f.
+void addWheelForce(int leg, const LegKinematics& k, const Eigen::Vector3d& f_B,
+                   model::JointCommands& out) {
+  const Eigen::Vector3d tau = -k.J.transpose() * f_B;
+  for (int j = 0; j < kLegDofs; ++j) out[robotJointIndex(leg, j)].tau_ff += tau[j];
+}
+
+Eigen::Vector3d upInBase(const State& x) {
+  return calcRotation(x.segment<3>(state_index::kTheta)).transpose() * Eigen::Vector3d::UnitZ();
+}
+
+}  // namespace
+
 void LocomotionController::addPostureIntegral(double t, const State& x, const ContactFlags& contact,
                                               const model::SensorData& sensors,
                                               model::JointCommands& out) {
@@ -185,35 +207,29 @@ void LocomotionController::addPostureIntegral(double t, const State& x, const Co
   posture_t_ = t;
   const bool integrate = dt > 0.0 && dt <= s.max_step_s &&
                          std::all_of(contact.begin(), contact.end(), [](bool c) { return c; });
+  const Eigen::Vector3d up_B = upInBase(x);
   for (int leg = 0; leg < kNumLegs; ++leg) {
-    if (!contact[leg] || !integrate) continue;
-    Eigen::Vector3d q_leg;
-    for (int j = 0; j < kLegDofs; ++j) q_leg[j] = sensors.joints[robotJointIndex(leg, j)].q;
+    if (!contact[leg]) continue;
     LegKinematics k;
-    model().calcLegKinematics(leg, q_leg, k);
+    model().calcLegKinematics(leg, measuredLegJoints(sensors, leg), k);
     // Compression: the wheel higher under the base than in the nominal posture.
     const double e = k.p_B.z() - nominal_wheel_z_[leg];
     double& f = posture_integral_[leg];
-    if (std::abs(e) <= s.band_m)
+    if (integrate && std::abs(e) <= s.band_m)
       f = std::clamp(f + s.gain_n_per_m_s * dt * e, -s.max_force_n, s.max_force_n);
+    if (f != 0.0) addWheelForce(leg, k, f * up_B, out);
   }
-  addLegSupport(x, sensors, contact, 1.0, out);
 }
 
 void LocomotionController::addLegSupport(const State& x, const model::SensorData& sensors,
                                          const ContactFlags& legs, double scale,
                                          model::JointCommands& out) const {
-  const Eigen::Vector3d up_B =
-      calcRotation(x.segment<3>(state_index::kTheta)).transpose() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d up_B = upInBase(x);
   for (int leg = 0; leg < kNumLegs; ++leg) {
     if (!legs[leg] || posture_integral_[leg] == 0.0) continue;
-    Eigen::Vector3d q_leg;
-    for (int j = 0; j < kLegDofs; ++j) q_leg[j] = sensors.joints[robotJointIndex(leg, j)].q;
     LegKinematics k;
-    model().calcLegKinematics(leg, q_leg, k);
-    // The ground's extra push f (up) on the wheel: the joints' torques -J^T f.
-    const Eigen::Vector3d tau = -k.J.transpose() * (scale * posture_integral_[leg] * up_B);
-    for (int j = 0; j < kLegDofs; ++j) out[robotJointIndex(leg, j)].tau_ff += tau[j];
+    model().calcLegKinematics(leg, measuredLegJoints(sensors, leg), k);
+    addWheelForce(leg, k, scale * posture_integral_[leg] * up_B, out);
   }
 }
 
