@@ -11,12 +11,16 @@
 //       repeats, how many points were valid and feasible, and the sum of their costs (equal
 //       between builds whose models agree).
 //
+// WJ_BENCH_PLANNER_SETTINGS=<yaml>: the planner's settings from that file in place of the
+// defaults (a model option's cost on the same points, e.g. physics.tyre_contact_modulus_pa).
+//
 // For instruction counts, run `read` under callgrind with
 // --toggle-collect='wj::planner::JumpModel::evaluate*' and divide by points x repeats
 // (scripts/bench-evaluate-fixed.sh).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <random>
@@ -121,9 +125,12 @@ int read(const JumpPlanner& planner, const Scenario& sc, const std::string& pres
 int main(int argc, char** argv) {
   if (argc < 4) return usage();
   const std::string mode = argv[1], preset = argv[2], file = argv[3];
-  const JumpPlanner planner(wj::model::RobotModel::loadDefault(), PlannerSettings{});
-  const Scenario sc = makePreset(planner, preset);
   try {
+    const char* settings_file = std::getenv("WJ_BENCH_PLANNER_SETTINGS");
+    const JumpPlanner planner(wj::model::RobotModel::loadDefault(),
+                              settings_file ? PlannerSettings::fromYaml(settings_file)
+                                            : PlannerSettings{});
+    const Scenario sc = makePreset(planner, preset);
     if (mode == "write") return write(planner, sc, file, argc > 4 ? std::stoi(argv[4]) : 1000);
     if (mode == "read") return read(planner, sc, preset, file, argc > 4 ? std::stoi(argv[4]) : 5);
   } catch (const std::exception& e) {

@@ -103,6 +103,7 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   k_.env_wheel = k_.robot.joint(Leg::LF, JointKind::Wheel).actuator;
   k_.tyre_rolling_excess = 1.0 / k_.settings.tyre_rolling_radius_ratio - 1.0;
   k_.tyre_slip_torque = k_.wheel_radius * k_.wheel_radius * k_.settings.tyre_slip_stiffness_n_s_m;
+  k_.tyre_hertz = 4.0 / 3.0 * k_.settings.tyre_contact_modulus_pa * std::sqrt(k_.wheel_radius);
   for (auto* env : {&k_.env_haa, &k_.env_hfe, &k_.env_kfe, &k_.env_wheel}) {
     env->peak_torque_nm *= k_.settings.actuator_torque_scale;
     // The paper's drives: the peak torque at every speed up to the no-load speed.
@@ -172,7 +173,10 @@ JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& sett
   if (!(k_.d_front - k_.d_hind > 0.05))
     throw std::invalid_argument("initial.q: the front wheels must be ahead of the hind wheels");
   k_.initial.x = 0.0;
-  k_.initial.z = k_.wheel_radius - 0.5 * (a_h.y() + a_f.y());
+  // The axles sit r above the ground, less the tyres' sink under the robot's weight.
+  k_.initial.z = k_.wheel_radius -
+                 detail::tyreSink(k_.tyre_hertz, 0.25 * k_.mass * k_.settings.gravity).x -
+                 0.5 * (a_h.y() + a_f.y());
   k_.initial.pitch = k_.init_input.pitch;
   k_.initial.vx = k_.init_input.v0;
   k_.initial.vz = 0.0;

@@ -61,6 +61,19 @@ struct JointBrake {
   double torqueAt(double tau) const;
 };
 
+/// A wheel's sink into the ground (docs/planner.md, "The tyre's sink") and its first two time
+/// derivatives [m, m/s, m/s^2].
+struct TyreSink {
+  double x = 0.0, rate = 0.0, acc = 0.0;
+};
+/// The sink of a Hertz tyre, F = k x^(3/2), under the normal force f with time derivatives fd
+/// and fdd (per wheel) [N, N/s, N/s^2]. Below kTyreSinkBlendN the law is the cubic in F that
+/// meets Hertz's value, slope and curvature there and is zero at F = 0, so that the rates and
+/// accelerations stay bounded and continuous where a pair unloads (Hertz's dx/dF is infinite
+/// at F = 0). k = 0: no sink.
+inline constexpr double kTyreSinkBlendN = 20.0;
+TyreSink tyreSink(double k, double f, double fd = 0.0, double fdd = 0.0);
+
 /// Kinematics and statics of one wheel pair at one instant (left leg; right is mirrored).
 struct PairSample {
   bool contact = false;
@@ -75,6 +88,7 @@ struct PairSample {
   double wheel_tau = 0.0;                          // [Nm]
   Eigen::Vector2d f = Eigen::Vector2d::Zero();     // ground force per wheel, J frame [N]
   Eigen::Vector2d axle = Eigen::Vector2d::Zero();  // axle position in J [m]
+  TyreSink sink;                                   // the tyre's, in contact (0 lifted)
   double reach = 0.0;                              // reach margin [m]
   // Where (HFE, KFE) come to rest if the pair lifts off here and brakes (its lift-off
   // sample; otherwise q, and `brakes` false).

@@ -57,6 +57,16 @@ inline Poly integral(const Poly& p, double c0 = 0.0) {
   for (int i = 0; i + 1 < r.n; ++i) r.c[i + 1] = p.c[i] / (i + 1);
   return r;
 }
+// p(t), p'(t) and p''(t) (Horner on the value and both derivatives).
+inline std::array<double, 3> valueAndDerivatives(const Poly& p, double t) {
+  double v = 0.0, d1 = 0.0, half_d2 = 0.0;
+  for (int i = p.n - 1; i >= 0; --i) {
+    half_d2 = half_d2 * t + d1;
+    d1 = d1 * t + v;
+    v = v * t + p.c[i];
+  }
+  return {v, d1, 2.0 * half_d2};
+}
 inline Poly derivative(const Poly& p) {
   Poly r;
   r.n = std::max(p.n - 1, 0);

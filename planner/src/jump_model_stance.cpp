@@ -24,8 +24,9 @@ void statics(const JumpModelConstants& M, const PlanarState& s, const Rot2& R, c
              const Eigen::Vector2d& f, double axle_vx, PairSample& p) {
   const double r = M.wheel_radius;
   p.f = f;
+  // The contact point on the ground, r less the tyre's sink below the axle.
   const Eigen::Vector2d contact_b =
-      M.leg.forward(pose) + R.transposeTimes(Eigen::Vector2d(0.0, -r));
+      M.leg.forward(pose) + R.transposeTimes(Eigen::Vector2d(0.0, p.sink.x - r));
   const Eigen::Vector2d f_b = R.transposeTimes(f);
   p.tau = M.leg.balancingTorque(pose, contact_b, f_b);
   p.haa_fz = f_b.y();
@@ -38,7 +39,51 @@ void statics(const JumpModelConstants& M, const PlanarState& s, const Rot2& R, c
       p.wheel_rate + M.tyre_rolling_excess * axle_vx / r + p.wheel_tau / M.tyre_slip_torque;
 }
 
+// Each pair's tyre sink at a sample (zero for a lifted pair or a rigid wheel): the Hertz law
+// on the pair's normal force shared by its two wheels.
+void setTyreSinks(const JumpModelConstants& M, const Solved& S, double local, bool phase2,
+                  PairSample& H, PairSample& F) {
+  H.sink = F.sink = TyreSink{};
+  if (!(M.tyre_hertz > 0.0)) return;
+  auto sink_of = [&](const Poly& fz) {
+    const std::array<double, 3> f = valueAndDerivatives(fz, local);
+    return tyreSink(M.tyre_hertz, 0.5 * f[0], 0.5 * f[1], 0.5 * f[2]);
+  };
+  H.sink = sink_of(phase2 ? S.fHz2 : S.fHz1);
+  if (!phase2) F.sink = sink_of(S.fFz1);
+}
+
 }  // namespace
+
+TyreSink tyreSink(double k, double f, double fd, double fdd) {
+  TyreSink out;
+  if (!(k > 0.0)) return out;
+  double x = 0.0, x_f = 0.0, x_ff = 0.0;  // x(F) and its first two derivatives in F
+  if (f >= kTyreSinkBlendN) {
+    x = std::cbrt(f / k);
+    x *= x;
+    x_f = 2.0 / 3.0 * x / f;
+    x_ff = -x_f / (3.0 * f);
+  } else {
+    // The cubic in r = F / F_b through 0 with Hertz's value, slope and curvature at r = 1:
+    // x_b (14 r - 7 r^2 + 2 r^3) / 9; below r = -1 (a pulling force, which the normal-force
+    // margin refuses) its tangent there.
+    double xb = std::cbrt(kTyreSinkBlendN / k);
+    xb *= xb;
+    const double r = std::max(f / kTyreSinkBlendN, -1.0);
+    const double scale = xb / 9.0;
+    x = scale * r * (14.0 + r * (-7.0 + 2.0 * r));
+    x_f = scale / kTyreSinkBlendN * (14.0 + r * (-14.0 + 6.0 * r));
+    x_ff = f / kTyreSinkBlendN < -1.0
+               ? 0.0
+               : scale / (kTyreSinkBlendN * kTyreSinkBlendN) * (-14.0 + 12.0 * r);
+    if (f / kTyreSinkBlendN < -1.0) x += x_f * (f + kTyreSinkBlendN);
+  }
+  out.x = x;
+  out.rate = x_f * fd;
+  out.acc = x_ff * fd * fd + x_f * fdd;
+  return out;
+}
 
 // The converged posture at take-off (S.takeoff_sample) of a solved take-off, which
 // the flight needs (and the FromTakeoff chain).
@@ -138,7 +183,8 @@ void contactPosture(const JumpModelConstants& M, const Solved& S, double t, Samp
   H = PairSample{};
   F = PairSample{};
   H.contact = true;
-  H.axle = Eigen::Vector2d(s.x + dH, r);
+  setTyreSinks(M, S, local, phase2, H, F);
+  H.axle = Eigen::Vector2d(s.x + dH, r - H.sink.x);
   out.hind_axle_vx = s.vx + dHdot;
   Eigen::Vector2d& relH = out.rel_h;
   Eigen::Vector2d& relF = out.rel_f;
@@ -146,7 +192,7 @@ void contactPosture(const JumpModelConstants& M, const Solved& S, double t, Samp
   relF.setZero();
   F.contact = !phase2;
   if (F.contact) {
-    F.axle = Eigen::Vector2d(s.x + M.d_front, r);
+    F.axle = Eigen::Vector2d(s.x + M.d_front, r - F.sink.x);
     relF = relative(F.axle);
   }
   LegPose& pH = out.pose_h;
@@ -198,9 +244,13 @@ void contactStatics(const JumpModelConstants& M, const Solved& S, Sample& out) {
   auto rate = [&](const Eigen::Vector2d& rel, const Eigen::Vector2d& v) -> Eigen::Vector2d {
     return out.R.transposeTimes(v - vcom) + s.pitch_rate * Eigen::Vector2d(rel.y(), -rel.x());
   };
-  const Eigen::Vector2d relH_dot = rate(out.rel_h, Eigen::Vector2d(out.hind_axle_vx, 0.0));
-  const Eigen::Vector2d relF_dot =
-      F.contact ? rate(out.rel_f, Eigen::Vector2d(s.vx, 0.0)) : Eigen::Vector2d::Zero();
+  // The axles roll on the ground and rise out of the tyres' sink (0 - x': +0 for a rigid
+  // wheel, as the rows have always had it).
+  const Eigen::Vector2d relH_dot =
+      rate(out.rel_h, Eigen::Vector2d(out.hind_axle_vx, 0.0 - H.sink.rate));
+  const Eigen::Vector2d relF_dot = F.contact
+                                       ? rate(out.rel_f, Eigen::Vector2d(s.vx, 0.0 - F.sink.rate))
+                                       : Eigen::Vector2d::Zero();
   // Joint rates: b_i = rel_i - hfe_i + c(q) and b_i' = J_i q_i', so
   // (J_i - C_i) q_i' - C_j q_j' = rel_i' for the pairs in contact.
   const Eigen::Matrix2d JH = M.leg.jacobian(pH);

@@ -138,17 +138,20 @@ StanceAccelerations stanceAccelerations(const JumpModelConstants& M, const Solve
         Eigen::Vector2d(l1 * P.s1 * w1 + l2 * P.s12 * w12, l1 * P.c1 * w1 + l2 * P.c12 * w12);
   }
   const Eigen::Vector2d vcom(s.vx, s.vz);
-  auto rel_dd = [&](const Eigen::Vector2d& rel, double axle_vx, double axle_ax) {
-    const Eigen::Vector2d u = R.transposeTimes(Eigen::Vector2d(axle_vx, 0.0) - vcom);
-    return Eigen::Vector2d(R.transposeTimes(Eigen::Vector2d(axle_ax, 0.0) - acc.com) -
+  // The axles roll on the ground and rise out of the tyres' sink: (vx, -x'), (ax, -x'').
+  auto rel_dd = [&](const Eigen::Vector2d& rel, double axle_vx, double axle_ax,
+                    const TyreSink& sink) {
+    const Eigen::Vector2d u = R.transposeTimes(Eigen::Vector2d(axle_vx, 0.0 - sink.rate) - vcom);
+    return Eigen::Vector2d(R.transposeTimes(Eigen::Vector2d(axle_ax, 0.0 - sink.acc) - acc.com) -
                            2.0 * w * perp(u) - w_dot * perp(rel) - w * w * rel);
   };
   const std::array<Eigen::Matrix2d, 2> C = comJacobians(M, pH, pF);
   const Eigen::Matrix2d A = M.leg.jacobian(pH) - C[0];
-  const Eigen::Vector2d r_h = rel_dd(smp.rel_h, smp.hind_axle_vx, acc.hind_axle_x) + h_c - h_b[0];
+  const Eigen::Vector2d r_h =
+      rel_dd(smp.rel_h, smp.hind_axle_vx, acc.hind_axle_x, H.sink) + h_c - h_b[0];
   if (F.contact) {
     // As for the rates: [A B; C D] with B = -C_F, C = -C_H, D = J_F - C_F (Schur complement).
-    const Eigen::Vector2d r_f = rel_dd(smp.rel_f, s.vx, acc.com.x()) + h_c - h_b[1];
+    const Eigen::Vector2d r_f = rel_dd(smp.rel_f, s.vx, acc.com.x(), F.sink) + h_c - h_b[1];
     const Eigen::Matrix2d B = -C[1], Cm = -C[0], Dm = M.leg.jacobian(pF) - C[1];
     const double det_a = A.determinant();
     if (std::abs(det_a) > 1e-12) {
@@ -307,8 +310,8 @@ void addStanceTorques(const JumpModelConstants& M, const StanceDynamics& D, cons
     const double wheel_acc = wheelAcceleration(M, acc, pair);
     // Up the chain: the links below each joint and the ground force at the contact point.
     const Eigen::Vector3d f_c = in_h(p.f);
-    const Eigen::Vector3d p_c =
-        axle.r - M.wheel_radius * c.R_hfe.transpose() * Eigen::Vector3d(up_b.x(), 0.0, up_b.y());
+    const Eigen::Vector3d p_c = axle.r - (M.wheel_radius - p.sink.x) * c.R_hfe.transpose() *
+                                             Eigen::Vector3d(up_b.x(), 0.0, up_b.y());
     Eigen::Vector3d f_sum = -f_c, m_sum = -p_c.cross(f_c);
     for (int n = 3; n >= 0; --n) {
       const std::size_t i = static_cast<std::size_t>(n);

@@ -128,6 +128,9 @@ void PlannerSettings::validate() const {
         "physics.tyre_rolling_radius_ratio", "in [0.8, 1.2]", tyre_rolling_radius_ratio);
   check(tyre_slip_stiffness_n_s_m > 0, "physics.tyre_slip_stiffness_n_s_m", "> 0",
         tyre_slip_stiffness_n_s_m);
+  check(tyre_contact_modulus_pa == 0 ||
+            (tyre_contact_modulus_pa >= 1e5 && tyre_contact_modulus_pa <= 1e10),
+        "physics.tyre_contact_modulus_pa", "0 (rigid) or in [1e5, 1e10]", tyre_contact_modulus_pa);
   check(tuck_end_fraction > 0 && tuck_end_fraction < extend_start_fraction,
         "postures.tuck_end_fraction", "in (0, extend_start_fraction)", tuck_end_fraction);
   check(extend_start_fraction < extend_end_fraction && extend_end_fraction <= 1,
@@ -340,6 +343,7 @@ PlannerSettings parse(const YAML::Node& root) {
               {"takeoff_unload_s", number(s.takeoff_unload_s)},
               {"tyre_rolling_radius_ratio", number(s.tyre_rolling_radius_ratio)},
               {"tyre_slip_stiffness_n_s_m", number(s.tyre_slip_stiffness_n_s_m)},
+              {"tyre_contact_modulus_pa", number(s.tyre_contact_modulus_pa)},
               {"balanced_stance", [&](const YAML::Node& v) { s.balanced_stance = v.as<bool>(); }},
               {"actuator_model",
                choice(s.actuator_model, std::map<std::string, ActuatorModel>{

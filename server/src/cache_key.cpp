@@ -217,9 +217,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // initial guess below; 10: a backflip's hind roll from its phase-1 speed at t1, which no probe
   // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below;
   // 12: takeoff_unload_s below; 13: the backflip's hind knee clearance and front brake share
-  // below; 14: balanced_stance below; 15: the loaded tyre below), which the probes below, run
-  // without the polish, do not see.
-  w.put(std::uint32_t{15});
+  // below; 14: balanced_stance below; 15: the loaded tyre below; 16: the tyre's sink below),
+  // which the probes below, run without the polish, do not see.
+  w.put(std::uint32_t{16});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -270,6 +270,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // speed, where it matters).
   w.putDouble(s.tyre_rolling_radius_ratio);
   w.putDouble(s.tyre_slip_stiffness_n_s_m);
+  // The tyre's sink (the probes' plans see it too; hashed so that a cache never mixes the
+  // rigid and the compliant wheel's plans).
+  w.putDouble(s.tyre_contact_modulus_pa);
 
   // Two canonical jumps from the take-off posture: straight up (simultaneous), and forward over
   // a box with a two-step take-off (every decision variable free).

@@ -81,6 +81,16 @@ TEST(PlannerSettings, TyreIsReadAndCheckedWithItsRange) {
                 (void)PlannerSettings::fromYamlString("physics: {tyre_slip_stiffness_n_s_m: 0}\n");
               }),
               test::HasSubstr("physics.tyre_slip_stiffness_n_s_m must be > 0"));
+  // The tyre's sink: off (the rigid wheel) unless a modulus is given.
+  EXPECT_EQ(d.tyre_contact_modulus_pa, 0.0);
+  EXPECT_DOUBLE_EQ(PlannerSettings::fromYamlString("physics: {tyre_contact_modulus_pa: 2.83e6}\n")
+                       .tyre_contact_modulus_pa,
+                   2.83e6);
+  EXPECT_THAT(test::errorOf<std::runtime_error>([] {
+                (void)PlannerSettings::fromYamlString("physics: {tyre_contact_modulus_pa: 50}\n");
+              }),
+              test::HasSubstr("physics.tyre_contact_modulus_pa must be 0 (rigid) or in [1e5, "
+                              "1e10], got 50"));
 }
 
 TEST(PlannerSettings, BalancedStanceIsReadAndCheckedAsABoolean) {

@@ -177,9 +177,10 @@ MomentumParts momentumParts(const model::RobotModel& robot, const planner::JumpP
 /// Simbody's nose-up pitch rate minus the plan's at the same instant, from the kinematics of the
 /// two wheel pairs (left legs; the runs are symmetric): with the front and hind axles a distance
 /// dx apart along x and rising at vz_F, vz_H in W, theta' dx = (vz_F - vz_H) - (R (v_F - v_H))_z,
-/// v the axles' velocities relative to the base from the joint rates. The plan keeps its axles
-/// on the ground (vz = 0); Simbody's compliant contact does not quite. Split: the joints' rates
-/// (Simbody's less the plan's, in Simbody's posture), the contact (Simbody's axles' vz) and the
+/// v the axles' velocities relative to the base from the joint rates. The rigid wheel's plan
+/// keeps its axles on the ground (vz = 0); Simbody's compliant contact does not quite. Split:
+/// the joints' rates (Simbody's less the plan's, in Simbody's posture), the contact (Simbody's
+/// axles' vz less the plan's, which its tyres' sink moves) and the
 /// posture (the plan's rates in Simbody's posture and attitude against the plan's own).
 struct PitchRateClosure {
   double measured = 0.0;  ///< Simbody's pitch rate less the plan's [rad/s]
@@ -221,8 +222,11 @@ PitchRateClosure pitchRateClosure(const model::RobotModel& robot, const planner:
   PitchRateClosure out;
   out.measured = -s.w_WB.y() - c.pitch_rate;
   out.joints = -(dvz_s - dvz_sp) / dx_s;
-  out.contact = (axleVz(front) - axleVz(hind)) / dx_s;
-  out.posture = -dvz_sp / dx_s + dvz_p / dx_p;
+  // The plan's axles rise out of its tyres' sink (PlannerSettings::tyre_contact_modulus_pa;
+  // zero for the rigid wheel): vz_F - vz_H = theta' dx + (R (v_F - v_H))_z in its own rows.
+  const double dvz_axles_p = c.pitch_rate * dx_p + dvz_p;
+  out.contact = (axleVz(front) - axleVz(hind) - dvz_axles_p) / dx_s;
+  out.posture = -dvz_sp / dx_s + dvz_p / dx_p + dvz_axles_p * (1.0 / dx_s - 1.0 / dx_p);
   return out;
 }
 
@@ -361,11 +365,14 @@ bool noTailFromEnv() {
   return v && std::string(v) == "1";
 }
 
-/// PlannerSettings with the stance momentum on or off.
+/// PlannerSettings with the stance momentum on or off; WJ_FIDELITY_TYRE_MODULUS=<Pa>: with the
+/// tyre's sink (PlannerSettings::tyre_contact_modulus_pa) in place of the rigid wheel.
 planner::PlannerSettings plannerSettings(bool stance_momentum) {
   planner::PlannerSettings s;
   s.stance_momentum = stance_momentum;
   if (noTailFromEnv()) s.takeoff_unload_s = 0.0;
+  if (const char* e = std::getenv("WJ_FIDELITY_TYRE_MODULUS"))
+    s.tyre_contact_modulus_pa = std::stod(e);
   return s;
 }
 

@@ -133,6 +133,9 @@ struct JumpModelConstants {
   /// The loaded tyre's additions to a wheel's joint rate (settings.tyre_*): 1 / ratio - 1 per
   /// unit of rolling rate v_axle / r, and r^2 k, the wheel torque per rad/s of slip [Nm s/rad].
   double tyre_rolling_excess = 0.0, tyre_slip_torque = 0.0;
+  /// The tyre's sink (settings.tyre_contact_modulus_pa): F = tyre_hertz x^(3/2) per wheel,
+  /// tyre_hertz = 4/3 E* sqrt(r) [N/m^1.5]; 0 for the rigid wheel.
+  double tyre_hertz = 0.0;
   std::array<double, 2> lim_hfe{}, lim_kfe{};
   /// Each pair's leg as a fixed-base two-link arm, for its joint-space inertia M(q_KFE)
   /// (docs/planner.md, "Flight: the legs brake"): M11 = i_hip + 2 m_l1_c cos q2, M12 = i_knee

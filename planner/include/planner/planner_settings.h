@@ -110,6 +110,14 @@ struct PlannerSettings {
   /// stiffness: the rigid wheel.
   double tyre_rolling_radius_ratio = 0.99;
   double tyre_slip_stiffness_n_s_m = 370.0;  ///< [N s/m] per wheel; see tyre_rolling_radius_ratio
+  /// The tyre's sink (docs/planner.md, "The tyre's sink"): the effective Hertz modulus E* of
+  /// a wheel against the ground [Pa]. Each wheel in the take-off sits x = (F / k)^(2/3) into
+  /// the ground under its share F of its pair's normal force, k = 4/3 E* sqrt(r), so its axle
+  /// is r - x high and rises as the push unloads it; the joints' paths, rates and torques
+  /// follow. 0: the rigid wheel (the model until session 27). Simbody's wheels, sphere on
+  /// half-space at sim::ContactSettings::stiffness_pa = 8 MPa per surface, have E* = 8e6 /
+  /// 2^1.5 = 2.83e6; the robot's real tyres are not measured (docs/planner.md).
+  double tyre_contact_modulus_pa = 0.0;
   /// The balanced stance (`physics.balanced_stance`; docs/planner.md, "The balanced stance"):
   /// a simultaneous take-off's export moves normal force between the pairs until they make
   /// the moment the plan's motion needs (the rigid-body pitch leaves out the legs' momentum:
