@@ -127,9 +127,9 @@ int main(int argc, char** argv) {
   const std::string mode = argv[1], preset = argv[2], file = argv[3];
   try {
     const char* settings_file = std::getenv("WJ_BENCH_PLANNER_SETTINGS");
-    const JumpPlanner planner(wj::model::RobotModel::loadDefault(),
-                              settings_file ? PlannerSettings::fromYaml(settings_file)
-                                            : PlannerSettings{});
+    const JumpPlanner planner(
+        wj::model::RobotModel::loadDefault(),
+        settings_file ? PlannerSettings::fromYaml(settings_file) : PlannerSettings{});
     const Scenario sc = makePreset(planner, preset);
     if (mode == "write") return write(planner, sc, file, argc > 4 ? std::stoi(argv[4]) : 1000);
     if (mode == "read") return read(planner, sc, preset, file, argc > 4 ? std::stoi(argv[4]) : 5);
