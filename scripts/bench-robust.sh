@@ -165,6 +165,10 @@ for i in range(trials):
                    "predicted_touchdown_rotation_rad") is not None else None),
            "estimator_position_rms_m": sim.get("estimator_position_rms_m"),
            "estimator_position_max_m": sim.get("estimator_position_max_m"),
+           # the scenarios run along +x: how far a landing turned the robot, and where it ended
+           "max_heading_after_landing_rad": sim.get("max_heading_after_landing_rad"),
+           "final_heading_rad": sim.get("final_heading_rad"),
+           "final_y_m": sim.get("final_y_m"),
            "jump_clearances_m": sim.get("jump_wall_clearance_m"),
            "landings": (d or {}).get("landings"),
            # requests repeated after an answer without a plan (planner.retries)
@@ -200,5 +204,9 @@ print(json.dumps({
                                           if r["jumped"]),
     "estimator_position_rms_m": stats(r["estimator_position_rms_m"] for r in rows),
     "estimator_position_max_m": stats(r["estimator_position_max_m"] for r in rows),
+    "max_heading_after_landing_rad": stats(r["max_heading_after_landing_rad"] for r in rows),
+    "final_abs_heading_rad": stats(abs(r["final_heading_rad"]) for r in rows
+                                   if r["final_heading_rad"] is not None),
+    "final_abs_y_m": stats(abs(r["final_y_m"]) for r in rows if r["final_y_m"] is not None),
     "failures": failures, "trials_detail": rows}, indent=1))
 PY

@@ -207,6 +207,9 @@ void ClientSettings::validate() const {
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("robot client settings: nmpc.") + e.what());
   }
+  inRange(route.lateral_gain_rad_per_m, 0.0, 5.0, "nmpc.route.lateral_gain_rad_per_m");
+  inRange(route.max_heading_offset_rad, 0.0, 0.5, "nmpc.route.max_heading_offset_rad");
+  inRange(route.min_speed_m_s, 0.0, 5.0, "nmpc.route.min_speed_m_s");
   inRange(planner.deadline_s, 0.01, 60.0, "planner.deadline_s");
   inRange(planner.retries, 0.0, 5.0, "planner.retries");
   inRange(static_cast<double>(planner.max_evaluations), 0.0, 1e7, "planner.max_evaluations");
@@ -303,6 +306,11 @@ ClientSettings parseClientSettings(std::string_view yaml_text, const std::string
     p.max_step_s = pi.number("max_step_s");
     pi.finish();
     s.jump_leg_support = m.flag("jump_leg_support");
+    StrictYamlMap route = m.map("route");
+    s.route.lateral_gain_rad_per_m = route.number("lateral_gain_rad_per_m");
+    s.route.max_heading_offset_rad = route.number("max_heading_offset_rad");
+    s.route.min_speed_m_s = route.number("min_speed_m_s");
+    route.finish();
     m.finish();
   }
   // The executor's gains are a file of their own, which the planning service's verifier reads

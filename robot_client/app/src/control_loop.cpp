@@ -63,6 +63,7 @@ void ControlLoop::initialise(const Eigen::Vector3d& p_WB) {
   estimator_.reset(p_WB, Eigen::Vector3d::Zero());
   t_ = sensors_.t;
   k_ = 0;
+  route_yaw_set_ = false;
   mpc_input_ = MpcInput{};
   mpc_input_.active = false;  // the first NMPC period starts it (cold, a few extra iterations)
   mpc_input_.command.t_start_s = t_;
@@ -75,8 +76,22 @@ void ControlLoop::setSpeedCommand(double v_target, double accel) {
   c.v_start_m_s = speed_;
   c.v_target_m_s = v_target;
   c.acceleration_m_s2 = accel;
-  c.yaw_rad = yaw_;
+  c.yaw_rad = routeHeading();
   ++mpc_input_.command_version;
+}
+
+double ControlLoop::routeHeading() const {
+  if (!route_yaw_set_) return yaw_;
+  const RouteSettings& r = settings_.route;
+  const double v = mpc_input_.command.v_target_m_s;
+  if (r.lateral_gain_rad_per_m == 0.0 || std::abs(v) < r.min_speed_m_s) return route_yaw_;
+  // The estimated position's offset to the left of the run's line, and the heading offset
+  // that steers back onto it (towards the right for an offset to the left, driving forward).
+  const Eigen::Vector2d d = estimator_.state().p_WB.head<2>() - route_origin_;
+  const double left = -std::sin(route_yaw_) * d.x() + std::cos(route_yaw_) * d.y();
+  const double offset = std::clamp(-r.lateral_gain_rad_per_m * left, -r.max_heading_offset_rad,
+                                   r.max_heading_offset_rad);
+  return route_yaw_ + (v > 0.0 ? offset : -offset);
 }
 
 double ControlLoop::groundHeightAt(double x) const {
@@ -175,6 +190,11 @@ void ControlLoop::estimate() {
   for (int j = 0; j < model::kNumJoints; ++j) q[j] = sensors_.joints[j].q;
   x_ = controller_.model().calcStateFromBase(X_WB, s.v_WB, s.omega_W, q, yaw_);
   yaw_ = x_[nmpc::state_index::kTheta + 2];
+  if (!route_yaw_set_) {  // the run's heading and line: the robot's pose at the start
+    route_yaw_ = yaw_;
+    route_origin_ = s.p_WB.head<2>();
+    route_yaw_set_ = true;
+  }
   roll_ = x_[nmpc::state_index::kTheta];
   pitch_ = x_[nmpc::state_index::kTheta + 1];
   const Eigen::Vector3d heading(std::cos(yaw_), std::sin(yaw_), 0.0);
@@ -273,6 +293,11 @@ void ControlLoop::computeCommands(const FsmOutput& out) {
   if (resuming || k_ - last_mpc_k_ >= static_cast<std::uint64_t>(mpc_every_)) {
     mpc_input_.t = t_;
     mpc_input_.x = x_;
+    // The route's heading follows the robot's offset from the run's line.
+    if (const double yaw = routeHeading(); yaw != mpc_input_.command.yaw_rad) {
+      mpc_input_.command.yaw_rad = yaw;
+      ++mpc_input_.command_version;
+    }
     mpc_.post(mpc_input_);
     last_mpc_k_ = k_;
   }

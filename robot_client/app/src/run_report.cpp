@@ -171,6 +171,11 @@ void RunRecorder::onTruth(const sim::GroundTruth& gt, const ControlLoop& loop) {
   truth_.final_x = p.x();
   truth_.final_pitch = pitch;
   truth_.final_roll = roll;
+  truth_.final_y = p.y();
+  truth_.final_heading = euler.z();
+  if (!std::isnan(truth_.touchdown_dx))
+    truth_.max_heading_after_landing =
+        std::max(truth_.max_heading_after_landing, std::abs(euler.z()));
   truth_.final_speed = gt.v_WB.x();
   truth_.final_height = p.z();
   double front = -1e9;
@@ -348,6 +353,9 @@ nlohmann::json RunSummary::toJson() const {
                       {"final_x_m", truth.final_x},
                       {"final_pitch_rad", truth.final_pitch},
                       {"final_roll_rad", truth.final_roll},
+                      {"final_y_m", truth.final_y},
+                      {"final_heading_rad", truth.final_heading},
+                      {"max_heading_after_landing_rad", truth.max_heading_after_landing},
                       {"final_speed_m_s", truth.final_speed},
                       {"estimator_position_rms_m", truth.est_pos_rms},
                       {"estimator_position_max_m", truth.est_pos_max},
@@ -398,6 +406,8 @@ void RunSummary::printTable(std::ostream& out) const {
   row("touchdown dx, CoM [m]", fmt(planned_touchdown_dx), fmt(truth.touchdown_dx));
   row("rotation at touchdown [rad]", fmt(planned_touchdown_rotation),
       fmt(truth.touchdown_rotation));
+  row("heading after landing [rad]", "0",
+      "max " + fmt(truth.max_heading_after_landing) + ", end " + fmt(truth.final_heading));
   if (service_verified_available)
     out << "  service's verification (from the plan's ideal start): apex base "
         << fmt(service_verified.apex.base_z) << " m, clearance "

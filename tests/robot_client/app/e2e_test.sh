@@ -146,6 +146,10 @@ else:
         check(len(touchdowns) == 2 and "BRAKE" not in [m[1] for m in modes[:touchdowns[1]]],
               f"stopped between the walls: {modes}")
         check(d["final_mode"] == "STAND", d["final_mode"])
+        # Along the run after 30 m and two landings: its heading and on its line (nmpc.route;
+        # docs/robot-client.md, "The route").
+        check(abs(sim["final_heading_rad"]) < 0.05, f"heading {sim['final_heading_rad']:.3f} rad")
+        check(abs(sim["final_y_m"]) < 0.3, f"{sim['final_y_m']:.3f} m off the run's line")
     if case == "forward":
         check(sim["min_wall_clearance_m"] > 0.0, "hit the wall")
         check(d["can"].find("dropped 0") >= 0 and d["can"].find("motor fault no") >= 0, d["can"])

@@ -77,6 +77,22 @@ TEST(ClientSettings, TheLegsIntegralIsReadAndBounded) {
       test::HasSubstr("missing key 'nmpc.posture_integral.band_m'"));
 }
 
+TEST(ClientSettings, TheRouteIsReadAndBounded) {
+  const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
+  EXPECT_DOUBLE_EQ(s.route.lateral_gain_rad_per_m, 0.3);
+  EXPECT_DOUBLE_EQ(s.route.max_heading_offset_rad, 0.15);
+  EXPECT_DOUBLE_EQ(s.route.min_speed_m_s, 0.5);
+  const std::string wide =
+      replaceFirst(shippedConfig(), "max_heading_offset_rad: 0.15", "max_heading_offset_rad: 0.9");
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(wide, kOrigin); }),
+      test::HasSubstr("nmpc.route.max_heading_offset_rad must be in [0, 0.5]"));
+  const std::string missing = replaceFirst(shippedConfig(), "    min_speed_m_s: 0.5", "");
+  EXPECT_THAT(
+      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, kOrigin); }),
+      test::HasSubstr("missing key 'nmpc.route.min_speed_m_s'"));
+}
+
 TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
   const std::string config = shippedConfig();
   const auto begin = config.find("  vertical:");

@@ -39,6 +39,18 @@ struct SafetySettings {
   double stopped_speed_m_s = 0.05;  ///< below this the robot counts as stopped [m/s]
 };
 
+/// Where the robot drives between its jumps (YAML `nmpc.route`): every speed command heads
+/// along the run, the robot's heading at its start, so that a landing that turned the robot
+/// rolls on along the run; while rolling it also steers back onto the run's line through its
+/// start (docs/robot-client.md, "The route").
+struct RouteSettings {
+  /// Heading offset towards the line per metre off it, while the commanded speed is at
+  /// least min_speed_m_s; 0: the heading only [rad/m].
+  double lateral_gain_rad_per_m = 0.0;
+  double max_heading_offset_rad = 0.15;  ///< bound of that offset [rad]
+  double min_speed_m_s = 0.5;            ///< below it, the heading only [m/s]
+};
+
 /// Contact detection from the leg torques: the ground force of a leg is estimated from its
 /// HFE and KFE torques through the planar leg Jacobian, gated by the wheel's estimated height.
 struct ContactSettings {
@@ -200,6 +212,8 @@ struct ClientSettings {
   /// A jump's push and landing add what the legs' integral learnt while rolling (YAML
   /// `nmpc.jump_leg_support`; the push scaled by the plan's vertical load).
   bool jump_leg_support = false;
+  /// The run's heading and line (YAML `nmpc.route`).
+  RouteSettings route;
   /// The scenarios of `scenarios:` in document order (forward, vertical, ...), each named by
   /// its key; a new scenario is a new entry in the YAML, not new code.
   std::vector<ScenarioSettings> scenarios;

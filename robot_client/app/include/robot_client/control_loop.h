@@ -105,6 +105,8 @@ class ControlLoop {
     return requester_ != nullptr ? requester_->executor() : nullptr;
   }
   void setSpeedCommand(double v_target, double accel);
+  // The heading the NMPC is to hold: the run's, offset towards its line (RouteSettings).
+  double routeHeading() const;
 
   const model::RobotModel& robot_;
   const ClientSettings& settings_;
@@ -136,6 +138,12 @@ class ControlLoop {
   std::uint64_t last_mpc_k_ = 0;  // period of the last post to the NMPC
   double t_ = 0.0;
   double yaw_ = 0.0;
+  // The run's heading and the point it starts from, the robot's estimated pose at its first
+  // control period: every speed command heads along it, so that a landing that turned the
+  // robot rolls on along the run, not along where it was turned (RouteSettings).
+  double route_yaw_ = 0.0;
+  Eigen::Vector2d route_origin_ = Eigen::Vector2d::Zero();
+  bool route_yaw_set_ = false;
   double com_x_ = 0.0, speed_ = 0.0, roll_ = 0.0, pitch_ = 0.0;
   Eigen::Vector3d com_offset_B_ = Eigen::Vector3d::Zero();  // CoM in the base frame
   std::array<double, model::kNumLegs> contact_force_{};

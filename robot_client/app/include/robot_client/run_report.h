@@ -50,6 +50,10 @@ struct TruthMetrics {
   double final_x = 0.0;              ///< base x at the end [m]
   double final_front_wheel_x = 0.0;  ///< front wheels' foremost x at the end [m]
   double final_pitch = 0.0, final_roll = 0.0, final_speed = 0.0, final_height = 0.0;
+  /// Base y and heading (yaw) at the end, and the largest |heading| from the first
+  /// touchdown on: the scenarios run along +x, so a landing that turns the robot shows here
+  /// [m, rad].
+  double final_y = 0.0, final_heading = 0.0, max_heading_after_landing = 0.0;
   double est_pos_rms = 0.0, est_vel_rms = 0.0;  ///< estimator error vs truth (RMS)
   double est_pos_max = 0.0;                     ///< largest position error over the run [m]
   /// Largest |torque| the simulated drives applied, per joint kind (HAA, HFE, KFE, WHEEL) [Nm]:
