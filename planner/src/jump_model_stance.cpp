@@ -70,14 +70,15 @@ TyreSink tyreSink(double k, double f, double fd, double fdd) {
     // margin refuses) its tangent there.
     double xb = std::cbrt(kTyreSinkBlendN / k);
     xb *= xb;
-    const double r = std::max(f / kTyreSinkBlendN, -1.0);
+    const double ratio = f / kTyreSinkBlendN, r = std::max(ratio, -1.0);
     const double scale = xb / 9.0;
     x = scale * r * (14.0 + r * (-7.0 + 2.0 * r));
     x_f = scale / kTyreSinkBlendN * (14.0 + r * (-14.0 + 6.0 * r));
-    x_ff = f / kTyreSinkBlendN < -1.0
-               ? 0.0
-               : scale / (kTyreSinkBlendN * kTyreSinkBlendN) * (-14.0 + 12.0 * r);
-    if (f / kTyreSinkBlendN < -1.0) x += x_f * (f + kTyreSinkBlendN);
+    x_ff = scale / (kTyreSinkBlendN * kTyreSinkBlendN) * (-14.0 + 12.0 * r);
+    if (ratio < -1.0) {  // the tangent at r = -1
+      x += x_f * (f + kTyreSinkBlendN);
+      x_ff = 0.0;
+    }
   }
   out.x = x;
   out.rate = x_f * fd;

@@ -138,7 +138,8 @@ StanceAccelerations stanceAccelerations(const JumpModelConstants& M, const Solve
         Eigen::Vector2d(l1 * P.s1 * w1 + l2 * P.s12 * w12, l1 * P.c1 * w1 + l2 * P.c12 * w12);
   }
   const Eigen::Vector2d vcom(s.vx, s.vz);
-  // The axles roll on the ground and rise out of the tyres' sink: (vx, -x'), (ax, -x'').
+  // The axles roll on the ground and rise out of the tyres' sink: (vx, -x'), (ax, -x''),
+  // written 0 - x' so that a rigid wheel keeps +0 (contactStatics; the plan digests see it).
   auto rel_dd = [&](const Eigen::Vector2d& rel, double axle_vx, double axle_ax,
                     const TyreSink& sink) {
     const Eigen::Vector2d u = R.transposeTimes(Eigen::Vector2d(axle_vx, 0.0 - sink.rate) - vcom);

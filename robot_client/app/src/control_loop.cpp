@@ -81,7 +81,6 @@ void ControlLoop::setSpeedCommand(double v_target, double accel) {
 }
 
 double ControlLoop::routeHeading() const {
-  if (!route_yaw_set_) return yaw_;
   const RouteSettings& r = settings_.route;
   const double v = mpc_input_.command.v_target_m_s;
   if (r.lateral_gain_rad_per_m == 0.0 || std::abs(v) < r.min_speed_m_s) return route_yaw_;
