@@ -17,6 +17,8 @@
 # the two runs is the simulation's own error on each figure.
 # WJ_FIDELITY_CONTACT_STIFFNESS=<Pa>: Simbody's contact modulus in place of 8e6.
 # WJ_FIDELITY_TAKEOFF_GAINS=kp,kd: the take-off's joint gains in place of 150,3.
+# WJ_FIDELITY_MOMENTUM_GAINS=kp,kd: the executor's take-off momentum feedback gains
+# (ExecutorSettings::takeoff_momentum_kp, _kd) in place of 150,0.5.
 # WJ_FIDELITY_TYRE_MODULUS=<Pa>: the planner's tyre sink (physics.tyre_contact_modulus_pa) in
 # place of the rigid wheel; Simbody's wheels are 2.828e6 (docs/takeoff-fidelity.md).
 set -euo pipefail

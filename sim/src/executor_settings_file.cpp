@@ -41,6 +41,7 @@ ExecutorSettings readFields(StrictYamlMap& m) {
   e.touchdown_placement_band_up_rad = m.number("touchdown_placement_band_up_rad");
   e.touchdown_placement_band_down_rad = m.number("touchdown_placement_band_down_rad");
   e.landing_pitch_limit_rad = m.number("landing_pitch_limit_rad");
+  e.landing_nose_down_limit_rad = m.number("landing_nose_down_limit_rad");
   e.landing_pitch_kp = m.number("landing_pitch_kp");
   e.landing_pitch_kd = m.number("landing_pitch_kd");
   e.landing_pitch_max_nm = m.number("landing_pitch_max_nm");

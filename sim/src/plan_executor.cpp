@@ -74,6 +74,7 @@ void ExecutorSettings::validate() const {
   requireNonNegative(touchdown_placement_band_up_rad, "touchdown_placement_band_up_rad");
   requireNonNegative(touchdown_placement_band_down_rad, "touchdown_placement_band_down_rad");
   requireNonNegative(landing_pitch_limit_rad, "landing_pitch_limit_rad");
+  requireNonNegative(landing_nose_down_limit_rad, "landing_nose_down_limit_rad");
   requireNonNegative(landing_pitch_kp, "landing_pitch_kp");
   requireNonNegative(landing_pitch_kd, "landing_pitch_kd");
   requireNonNegative(landing_pitch_max_nm, "landing_pitch_max_nm");
@@ -403,14 +404,22 @@ double PlanExecutor::calcPlacementOffset(double t) const {
 
 void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
                                         model::JointCommands& out) const {
+  const ExecutorSettings& e = settings_;
+  if (e.landing_pitch_kp == 0.0 && e.landing_pitch_kd == 0.0) return;
   // The absolute nose-up pitch, folded: after a backflip the running pitch is a turn more.
-  const double over = foldAngle(pitch_) - settings_.landing_pitch_limit_rad;
-  if (over <= 0.0 || (settings_.landing_pitch_kp == 0.0 && settings_.landing_pitch_kd == 0.0))
-    return;
+  const double pitch = foldAngle(pitch_);
   const double rate = -omega_W.y();  // nose-up positive
-  const double dtau =
-      std::clamp(-(settings_.landing_pitch_kp * over + settings_.landing_pitch_kd * rate),
-                 -settings_.landing_pitch_max_nm, 0.0);
+  double dtau = 0.0;
+  if (const double up = pitch - e.landing_pitch_limit_rad; up > 0.0) {
+    // A wheelie: brake (the body pitches nose-down), never drive.
+    dtau = std::clamp(-(e.landing_pitch_kp * up + e.landing_pitch_kd * rate),
+                      -e.landing_pitch_max_nm, 0.0);
+  } else if (const double down = -pitch - e.landing_nose_down_limit_rad; down > 0.0) {
+    // A stoppie: drive (the body pitches nose-up), never brake.
+    dtau = std::clamp(e.landing_pitch_kp * down - e.landing_pitch_kd * rate, 0.0,
+                      e.landing_pitch_max_nm);
+  }
+  if (dtau == 0.0) return;
   for (int leg = 0; leg < model::kNumLegs; ++leg)
     out[model::jointIndex(static_cast<model::Leg>(leg), model::JointKind::Wheel)].tau_ff += dtau;
 }

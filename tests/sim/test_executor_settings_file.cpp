@@ -38,6 +38,7 @@ TEST(ExecutorSettingsFile, ShippedFileIsReadAndValid) {
   EXPECT_LT(s.flight_kp, d.flight_kp);
   EXPECT_DOUBLE_EQ(s.touchdown_pitch_placement, 1.0);
   EXPECT_DOUBLE_EQ(s.landing_pitch_limit_rad, 0.4);
+  EXPECT_DOUBLE_EQ(s.landing_nose_down_limit_rad, 0.15);
   EXPECT_DOUBLE_EQ(s.landing_pitch_kp, 40.0);
   EXPECT_DOUBLE_EQ(s.two_step_flight_kp, 400.0);
   EXPECT_TRUE(s.landing_gravity_feedforward);

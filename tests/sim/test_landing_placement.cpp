@@ -215,11 +215,41 @@ TEST(LandingPlacement, WheelsBrakeAgainstAWheelieBeyondTheLimitOnly) {
   EXPECT_NEAR(wheelTau(c, Leg::RH), -8.0, 1e-12);
   ex.update(0.52, pitching(0.45, -3.0), true, c);  // coming down fast: never a forward torque
   EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
+  ex.update(0.53, pitching(-0.1, -1.0), true, c);  // nose-down within 0.15: nothing
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LF), 0.0);
 
   PlanExecutor off(robot, plan, placement(0.0), 9.81);  // kp = kd = 0 by default
   c = flyTo(off, 0.48, kPlanPitch);
   off.update(0.49, pitching(0.7, 3.0), true, c);
   EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
+}
+
+// A front-heavy robot tipping over its front wheels in a braking landing: beyond 0.15 rad of
+// nose-down pitch every wheel drives (kp and kd as the wheelie's), never brakes.
+TEST(LandingPlacement, WheelsDriveAgainstAStoppieBeyondTheLimitOnly) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  ExecutorSettings s = wheelieBrake();
+  s.landing_nose_down_limit_rad = 0.15;
+  PlanExecutor ex(robot, plan, s, 9.81);
+  model::JointCommands c = flyTo(ex, 0.48, kPlanPitch);
+  ex.update(0.49, pitching(0.0, 0.0), true, c);  // touchdown level
+  ASSERT_EQ(ex.phase(), JumpPhase::Landing);
+  ex.update(0.5, pitching(-0.14, -1.0), true, c);  // nose-down, falling, inside the limit
+  for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+    EXPECT_DOUBLE_EQ(wheelTau(c, leg), 0.0);
+  ex.update(0.51, pitching(-0.2, -0.5), true, c);  // 0.05 beyond, falling at 0.5 rad/s
+  for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+    EXPECT_NEAR(wheelTau(c, leg), 40.0 * 0.05 + 4.0 * 0.5, 1e-9);
+  ex.update(0.52, pitching(-0.6, -2.0), true, c);  // far beyond: clamped
+  EXPECT_NEAR(wheelTau(c, Leg::LF), 8.0, 1e-12);
+  ex.update(0.53, pitching(-0.2, 3.0), true, c);  // coming up fast: never a braking torque
+  EXPECT_DOUBLE_EQ(wheelTau(c, Leg::RF), 0.0);
+
+  s.landing_nose_down_limit_rad = -0.1;  // a limit below zero is refused by name
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return PlanExecutor(robot, plan, s, 9.81); }),
+      test::HasSubstr("landing_nose_down_limit_rad"));
 }
 
 // After a backflip the running (unwrapped) pitch is a turn more than the body's attitude: the

@@ -396,6 +396,8 @@ bool stanceMomentumFromEnv() {
 /// much of the gap is the tyre's compliance, docs/planner.md "The tyre's lag").
 /// WJ_FIDELITY_TAKEOFF_GAINS="kp,kd": the take-off's joint gains in place of 150, 3 (how much of
 /// the gap is the joints' tracking, docs/takeoff-fidelity.md "Stiffer tracking").
+/// WJ_FIDELITY_MOMENTUM_GAINS="kp,kd": the take-off's momentum feedback gains in place of
+/// 150, 0.5 (docs/takeoff-fidelity.md, "The momentum feedback's gain").
 VerifierSettings verifierSettings() {
   const char* reference = std::getenv("WJ_FIDELITY_REFERENCE_INTEGRATOR");
   VerifierSettings s = reference && std::string(reference) == "1" ? VerifierSettings::reference()
@@ -417,6 +419,14 @@ VerifierSettings verifierSettings() {
                                   std::string(g) + "'");
     s.executor.takeoff_kp = std::stod(g);
     s.executor.takeoff_kd = std::stod(comma + 1);
+  }
+  if (const char* g = std::getenv("WJ_FIDELITY_MOMENTUM_GAINS")) {
+    const char* comma = std::strchr(g, ',');
+    if (comma == nullptr)
+      throw std::invalid_argument("WJ_FIDELITY_MOMENTUM_GAINS must be 'kp,kd', got '" +
+                                  std::string(g) + "'");
+    s.executor.takeoff_momentum_kp = std::stod(g);
+    s.executor.takeoff_momentum_kd = std::stod(comma + 1);
   }
   const char* open = std::getenv("WJ_FIDELITY_OPEN_LOOP");
   if (open && std::string(open) == "1") {

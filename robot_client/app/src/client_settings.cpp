@@ -78,6 +78,7 @@ void validateScenario(const ScenarioSettings& s, const std::string& p) {
   inRange(s.duration_s, 1.0, 600.0, p + "duration_s");
   inRange(s.roll_on_speed_m_s, 0.0, 5.0, p + "after_landing.speed_m_s");
   inRange(s.roll_on_s, 0.0, 600.0, p + "after_landing.roll_s");
+  inRange(s.edge_margin_m, 0.0, 10.0, p + "after_landing.edge_margin_m");
   if (s.landsOnWall())
     inRange(s.target_com_height_m, s.wall_height_m + 0.05, 1.5,
             p + "target.com_height_m (landing on the wall: CoM above its top)");
@@ -157,6 +158,7 @@ ScenarioSettings parseScenario(StrictYamlMap m, const std::string& name) {
   s.after_landing = after.choice("mode", std::array{AfterLanding::Stop, AfterLanding::RollOn});
   s.roll_on_speed_m_s = after.number("speed_m_s");
   s.roll_on_s = after.number("roll_s");
+  if (after.has("edge_margin_m")) s.edge_margin_m = after.number("edge_margin_m");
   after.finish();
   if (m.has("actuators_file")) s.actuators_file = m.text("actuators_file");
   m.finish();

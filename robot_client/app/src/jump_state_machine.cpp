@@ -48,6 +48,8 @@ std::string_view toString(Reason reason) {
       return "landing over, rolling on to the next wall";
     case Reason::RolledOn:
       return "rolled on";
+    case Reason::PlatformEnd:
+      return "the platform's far end ahead";
     case Reason::NoPlanByDecisionPoint:
       return "no plan by the decision point";
     case Reason::PlanInfeasible:
@@ -78,6 +80,14 @@ JumpStateMachine::JumpStateMachine(const ScenarioSettings& scenario, const Safet
   takeoff_com_x_ = scenario_.has_wall
                        ? scenario_.wallX(0) - scenario_.takeoff_to_wall_m - scenario_.takeoff_lead_m
                        : 0.0;
+}
+
+bool JumpStateMachine::platformEndAhead(const FsmInput& in) const {
+  if (!scenario_.landsOnWall()) return false;
+  const double far_end = takeoff_com_x_ + scenario_.takeoff_to_wall_m + scenario_.takeoff_lead_m +
+                         scenario_.wall_thickness_m;
+  const double stop_x = in.com_x + in.speed * std::abs(in.speed) / (2.0 * safety_.brake_decel_m_s2);
+  return stop_x >= far_end - scenario_.edge_margin_m;
 }
 
 void JumpStateMachine::enter(Mode to, Reason why, const FsmInput& in) {
@@ -131,10 +141,14 @@ FsmOutput JumpStateMachine::step(const FsmInput& in) {
       break;
     case Mode::Roll:
       if (!armed()) {
-        // Rolling on after the last landing, then a stop.
+        // Rolling on after the last landing, then a stop: after the scenario's time, or
+        // sooner where a platform ends.
         if (in.t >= mode_since_ + scenario_.roll_on_s) {
           out.brake = true;
           enter(Mode::Brake, Reason::RolledOn, in);
+        } else if (platformEndAhead(in)) {
+          out.brake = true;
+          enter(Mode::Brake, Reason::PlatformEnd, in);
         }
       } else if (scenario_.has_wall && in.com_x >= decisionComX()) {
         abort(Reason::NoPlanByDecisionPoint);

@@ -146,11 +146,16 @@ struct ExecutorSettings {
   /// to [-landing_pitch_max_nm, 0], to its torque. A braking wheel pitches the body nose-down
   /// (its reaction, and the ground's braking force below the CoM); a rear-heavy robot (a
   /// payload behind) otherwise rose on its hind wheels to 0.69 rad after the landing and
-  /// tipped over (docs/robust.md). kp = kd = 0: off.
+  /// tipped over (docs/robust.md). Mirrored below landing_nose_down_limit_rad of nose-down
+  /// pitch: every wheel adds kp (-pitch - limit) - kd pitch_rate, clamped to
+  /// [0, landing_pitch_max_nm], a forward torque that pitches the body nose-up. A braking
+  /// landing otherwise tipped a front-heavy robot (a payload ahead) onto its front wheels and
+  /// over them (platform campaign, docs/robust.md, "The landing's stoppie"). kp = kd = 0: off.
   double landing_pitch_limit_rad = 0.4;
-  double landing_pitch_kp = 0.0;      ///< [Nm/rad]
-  double landing_pitch_kd = 0.0;      ///< [Nm s/rad]
-  double landing_pitch_max_nm = 8.0;  ///< [Nm] per wheel
+  double landing_nose_down_limit_rad = 0.15;  ///< see landing_pitch_limit_rad [rad]
+  double landing_pitch_kp = 0.0;              ///< [Nm/rad]
+  double landing_pitch_kd = 0.0;              ///< [Nm s/rad]
+  double landing_pitch_max_nm = 8.0;          ///< [Nm] per wheel
 
   /// Throws std::invalid_argument naming the field when a value is out of range.
   void validate() const;
@@ -224,7 +229,8 @@ class PlanExecutor {
                             model::JointCommands& out) const;
   // The HFE offset of the leg placement for the measured pitch (touchdown_pitch_placement).
   double calcPlacementOffset(double t) const;
-  // Adds the landing's wheel braking against a wheelie to every wheel's torque.
+  // Adds the landing's wheel torque against a wheelie (braking) or a stoppie (driving) to
+  // every wheel's torque.
   void addLandingPitchBrake(const Eigen::Vector3d& omega_W, model::JointCommands& out) const;
   // Adds `offset` to every leg's HFE reference, inside the joint range.
   void addHfeOffset(double offset, model::JointCommands& out) const;

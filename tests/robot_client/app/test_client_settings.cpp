@@ -176,6 +176,14 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   EXPECT_THAT(
       test::errorOf<std::invalid_argument>([&] { return parseClientSettings(low, kOrigin); }),
       test::HasSubstr("scenarios.platform.target.com_height_m"));
+  // The roll-on's margin to the platform's far end: optional (0.5 m), and bounded.
+  EXPECT_DOUBLE_EQ(s.scenario("platform").edge_margin_m, 0.5);
+  EXPECT_DOUBLE_EQ(s.scenario("forward").edge_margin_m, 0.5);
+  const std::string bad =
+      replaceFirst(shippedConfig(), "edge_margin_m: 0.5", "edge_margin_m: -0.2");
+  EXPECT_THAT(
+      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(bad, kOrigin); }),
+      test::HasSubstr("scenarios.platform.after_landing.edge_margin_m must be in [0, 10]"));
 }
 
 // A touchdown target's CoM height is where the planner's own presets put it: the CoM of the robot

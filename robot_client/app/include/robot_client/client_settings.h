@@ -176,7 +176,11 @@ struct ScenarioSettings {
   AfterLanding after_landing = AfterLanding::Stop;
   double roll_on_speed_m_s = 3.0;  ///< roll_on: speed along the heading [m/s]
   double roll_on_s = 2.0;          ///< roll_on: how long it rolls on before it stops [s]
-  double duration_s = 12.0;        ///< end of the run [s]
+  /// roll_on onto a platform (landsOnWall()): the roll-on ends early, and the robot brakes at
+  /// SafetySettings::brake_decel_m_s2, once that stop would end this close to the platform's
+  /// far end (estimated CoM) [m]. Optional YAML key `after_landing.edge_margin_m`.
+  double edge_margin_m = 0.5;
+  double duration_s = 12.0;  ///< end of the run [s]
   /// Actuator file of the robot in this scenario (models folder; optional key, default the
   /// real robot's). The simulated robot and the planning service must use the same one: the
   /// service's `actuators_file` (docs/backflip.md).

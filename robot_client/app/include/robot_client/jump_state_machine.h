@@ -38,6 +38,7 @@ enum class Reason : std::uint8_t {
   RollOn,             ///< landing phase over, rolling on
   NextWall,           ///< landing phase over, rolling on to the next wall of a course
   RolledOn,           ///< rolled on after the landing for the scenario's time
+  PlatformEnd,        ///< rolling on along a platform: a stop now ends at its edge margin
   NoPlanByDecisionPoint,
   PlanInfeasible,
   PlannerFailed,  ///< unreachable, deadline exceeded, or an error status
@@ -139,6 +140,10 @@ class JumpStateMachine {
   }
   // A jump is still to come (the run-up, the plan request and the take-off are armed).
   bool armed() const { return wall_index_ < scenario_.jumps(); }
+  // After a landing on a platform: a stop from `in`'s speed at the safety brake's
+  // deceleration would end within the scenario's edge margin of the platform's far end (the
+  // near face as last perceived, setWallX, plus the thickness).
+  bool platformEndAhead(const FsmInput& in) const;
 
   ScenarioSettings scenario_;
   SafetySettings safety_;
