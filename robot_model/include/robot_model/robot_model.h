@@ -34,12 +34,12 @@ std::string_view toString(JointKind kind);
 constexpr int jointIndex(Leg leg, JointKind kind) {
   return static_cast<int>(leg) * kJointsPerLeg + static_cast<int>(kind);
 }
-/// True for the front legs (LF, RF).
 /// True for the wheel joint of a leg, by its index in jointIndex() order.
 constexpr bool isWheel(int joint) {
   return joint % kJointsPerLeg == static_cast<int>(JointKind::Wheel);
 }
 
+/// True for the front legs (LF, RF).
 constexpr bool isFront(Leg leg) {
   return leg == Leg::LF || leg == Leg::RF;
 }
