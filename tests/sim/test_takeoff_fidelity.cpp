@@ -382,6 +382,16 @@ bool stanceMomentumFromEnv() {
   return v && std::string(v) == "1";
 }
 
+/// The environment variable `name` as "kp,kd", if set.
+std::optional<std::pair<double, double>> gainPair(const char* name) {
+  const char* g = std::getenv(name);
+  if (g == nullptr) return std::nullopt;
+  const char* comma = std::strchr(g, ',');
+  if (comma == nullptr)
+    throw std::invalid_argument(std::string(name) + " must be 'kp,kd', got '" + g + "'");
+  return std::make_pair(std::stod(g), std::stod(comma + 1));
+}
+
 /// WJ_FIDELITY_SPEED_LOOP=1: the take-off's wheels with session 16's law (the plan's torque
 /// plus takeoff_wheel_kd on the whole error to the plan's no-slip rate), for the before/after
 /// comparison of the bench grid. WJ_FIDELITY_OPEN_LOOP=1: session 19's executor, without the
@@ -412,21 +422,13 @@ VerifierSettings verifierSettings() {
     s.executor.tyre_slip_stiffness_n_s_m = std::numeric_limits<double>::max();
     s.executor.tyre_rolling_radius_ratio = 1.0;
   }
-  if (const char* g = std::getenv("WJ_FIDELITY_TAKEOFF_GAINS")) {
-    const char* comma = std::strchr(g, ',');
-    if (comma == nullptr)
-      throw std::invalid_argument("WJ_FIDELITY_TAKEOFF_GAINS must be 'kp,kd', got '" +
-                                  std::string(g) + "'");
-    s.executor.takeoff_kp = std::stod(g);
-    s.executor.takeoff_kd = std::stod(comma + 1);
+  if (const auto g = gainPair("WJ_FIDELITY_TAKEOFF_GAINS")) {
+    s.executor.takeoff_kp = g->first;
+    s.executor.takeoff_kd = g->second;
   }
-  if (const char* g = std::getenv("WJ_FIDELITY_MOMENTUM_GAINS")) {
-    const char* comma = std::strchr(g, ',');
-    if (comma == nullptr)
-      throw std::invalid_argument("WJ_FIDELITY_MOMENTUM_GAINS must be 'kp,kd', got '" +
-                                  std::string(g) + "'");
-    s.executor.takeoff_momentum_kp = std::stod(g);
-    s.executor.takeoff_momentum_kd = std::stod(comma + 1);
+  if (const auto g = gainPair("WJ_FIDELITY_MOMENTUM_GAINS")) {
+    s.executor.takeoff_momentum_kp = g->first;
+    s.executor.takeoff_momentum_kd = g->second;
   }
   const char* open = std::getenv("WJ_FIDELITY_OPEN_LOOP");
   if (open && std::string(open) == "1") {

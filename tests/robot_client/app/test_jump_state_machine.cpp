@@ -138,57 +138,6 @@ TEST(JumpStateMachine, AfterTheLandingItRollsOnAtTheCommandedSpeedThenStops) {
   EXPECT_EQ(d.fsm.journal(n - 2).reason, Reason::RolledOn);
 }
 
-// Onto a platform (12 to 16 m): the roll-on ends early, once a stop at the safety brake's
-// 2.5 m/s^2 would end within the edge margin of the far end as last perceived.
-TEST(JumpStateMachine, OnAPlatformTheRollOnBrakesBeforeItsFarEnd) {
-  ScenarioSettings sc = forward();
-  sc.wall_x_m = {12.0};
-  sc.wall_thickness_m = 4.0;
-  sc.takeoff_to_wall_m = 1.6;
-  sc.target_dx_m = 2.0;
-  sc.after_landing = AfterLanding::RollOn;
-  sc.roll_on_speed_m_s = 1.0;
-  sc.roll_on_s = 30.0;
-  sc.edge_margin_m = 0.5;
-  ASSERT_TRUE(sc.landsOnWall());
-  Drive d(sc);
-  d.in.speed = 3.0;
-  ASSERT_TRUE(d.until(Mode::Plan, 5.0));
-  d.fsm.setWallX(12.1);  // the range sensor sees the platform 0.1 m further
-  d.in.plan = PlanStatus::Feasible;
-  ASSERT_TRUE(d.until(Mode::Takeoff, 10.0));
-  d.in.executor_in_flight = true;
-  d.tick();
-  d.in.executor_in_flight = false;
-  d.in.executor_landing = true;
-  d.tick();
-  d.in.executor_finished = true;
-  d.in.com_x = 14.5;
-  d.in.speed = 1.0;
-  ASSERT_EQ(d.tick().mode, Mode::Roll);
-  // Far end 16.1: the stop (0.2 m from 1 m/s) may end at 15.6, so the brake comes at 15.4.
-  ASSERT_TRUE(d.until(Mode::Brake, d.in.t + 5.0));
-  EXPECT_NEAR(d.in.com_x, 15.4, 0.011);
-  EXPECT_EQ(d.brakes, 1);
-  const int n = d.fsm.journalCount();
-  EXPECT_EQ(d.fsm.journal(n - 1).reason, Reason::PlatformEnd);
-  EXPECT_EQ(d.fsm.abortReason(), Reason::Start);
-
-  // A faster hand-over brakes at once.
-  Drive fast(sc);
-  fast.in.speed = 3.0;
-  ASSERT_TRUE(fast.until(Mode::Plan, 5.0));
-  fast.in.plan = PlanStatus::Feasible;
-  ASSERT_TRUE(fast.until(Mode::Takeoff, 10.0));
-  fast.in.executor_landing = true;
-  fast.tick();
-  fast.in.executor_finished = true;
-  fast.in.com_x = 14.8;
-  fast.in.speed = 2.0;  // stops 0.8 m on, beyond 15.5: the next period brakes
-  EXPECT_EQ(fast.tick().mode, Mode::Roll);
-  EXPECT_EQ(fast.tick().mode, Mode::Brake);
-}
-
 // Flies the jump that the machine is taking off into: flight, landing, landing over.
 FsmOutput flyJump(Drive& d) {
   d.in.executor_in_flight = true;
@@ -202,6 +151,47 @@ FsmOutput flyJump(Drive& d) {
   d.in.executor_landing = false;
   d.in.executor_finished = false;
   return out;
+}
+
+// Onto a platform (12 to 16 m): the roll-on ends early, once a stop at the safety brake's
+// 2.5 m/s^2 would end within the edge margin of the far end as last perceived.
+TEST(JumpStateMachine, OnAPlatformTheRollOnBrakesBeforeItsFarEnd) {
+  ScenarioSettings sc = forward();
+  sc.wall_x_m = {12.0};
+  sc.wall_thickness_m = 4.0;
+  sc.takeoff_to_wall_m = 1.6;
+  sc.target_dx_m = 2.0;
+  sc.after_landing = AfterLanding::RollOn;
+  sc.roll_on_speed_m_s = 1.0;
+  sc.roll_on_s = 30.0;
+  sc.edge_margin_m = 0.5;
+  ASSERT_TRUE(sc.landsOnWall());
+  // Runs up, takes off, and lands at `x` with `speed`: the landing is over, it rolls on.
+  const auto landAt = [](Drive& d, double x, double speed) {
+    d.in.speed = 3.0;
+    ASSERT_TRUE(d.until(Mode::Plan, 5.0));
+    d.in.plan = PlanStatus::Feasible;
+    ASSERT_TRUE(d.until(Mode::Takeoff, 10.0));
+    d.in.com_x = x;
+    d.in.speed = speed;
+    flyJump(d);
+  };
+  Drive d(sc);
+  d.fsm.setWallX(12.1);  // the range sensor sees the platform 0.1 m further
+  landAt(d, 14.5, 1.0);
+  ASSERT_EQ(d.fsm.mode(), Mode::Roll);
+  // Far end 16.1: the stop (0.2 m from 1 m/s) may end at 15.6, so the brake comes at 15.4.
+  ASSERT_TRUE(d.until(Mode::Brake, d.in.t + 5.0));
+  EXPECT_NEAR(d.in.com_x, 15.4, 0.011);
+  EXPECT_EQ(d.brakes, 1);
+  EXPECT_EQ(d.fsm.journal(d.fsm.journalCount() - 1).reason, Reason::PlatformEnd);
+  EXPECT_EQ(d.fsm.abortReason(), Reason::Start);
+
+  // A faster hand-over brakes at once (the next period).
+  Drive fast(sc);
+  landAt(fast, 14.8, 2.0);  // stops 0.8 m on, beyond 15.5
+  ASSERT_EQ(fast.fsm.mode(), Mode::Roll);
+  EXPECT_EQ(fast.tick().mode, Mode::Brake);
 }
 
 TEST(JumpStateMachine, ACourseJumpsEveryWallInTurnWithoutStoppingThenRollsOnAndStops) {
