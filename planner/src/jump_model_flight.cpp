@@ -33,10 +33,11 @@ void integrateFlightAttitude(const JumpModelConstants& M, Solved& S) {
   // The body's nose-up pitch rate at time t (about -y), and the legs' posture and CoM offset.
   // While the legs hold a posture (tucked, or landing) the inertia and CoM offset are those of
   // the last call with the same posture at rest, so they are kept instead of recomputed.
+  // Zero-initialized although read only once valid: GCC 12 cannot see that and warns.
   struct Held {
-    std::array<Eigen::Vector2d, 2> q;
+    std::array<Eigen::Vector2d, 2> q = {Eigen::Vector2d::Zero(), Eigen::Vector2d::Zero()};
     double i_total = 0.0;
-    Eigen::Vector2d c;
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
     bool valid = false;
   } held;
   auto rate_at = [&](double t, std::array<Eigen::Vector2d, 2>& q, Eigen::Vector2d* c) {
