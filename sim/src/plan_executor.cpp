@@ -409,17 +409,16 @@ void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
   // The absolute nose-up pitch, folded: after a backflip the running pitch is a turn more.
   const double pitch = foldAngle(pitch_);
   const double rate = -omega_W.y();  // nose-up positive
-  double dtau = 0.0;
-  if (const double up = pitch - e.landing_pitch_limit_rad; up > 0.0) {
-    // A wheelie: brake (the body pitches nose-down), never drive.
-    dtau = std::clamp(-(e.landing_pitch_kp * up + e.landing_pitch_kd * rate),
-                      -e.landing_pitch_max_nm, 0.0);
-  } else if (const double down = -pitch - e.landing_nose_down_limit_rad; down > 0.0) {
-    // A stoppie: drive (the body pitches nose-up), never brake.
-    dtau = std::clamp(e.landing_pitch_kp * down - e.landing_pitch_kd * rate, 0.0,
-                      e.landing_pitch_max_nm);
-  }
-  if (dtau == 0.0) return;
+  // One guard, two sides: beyond the limit of its side (a wheelie nose-up, a stoppie
+  // nose-down) every wheel turns the body back, braking against a wheelie (it pitches the
+  // body nose-down) and driving against a stoppie, never the other way.
+  const double side = pitch > 0.0 ? 1.0 : -1.0;
+  const double beyond =
+      side * pitch - (side > 0.0 ? e.landing_pitch_limit_rad : e.landing_nose_down_limit_rad);
+  if (beyond <= 0.0) return;
+  const double dtau =
+      -side * std::clamp(e.landing_pitch_kp * beyond + e.landing_pitch_kd * side * rate, 0.0,
+                         e.landing_pitch_max_nm);
   for (int leg = 0; leg < model::kNumLegs; ++leg)
     out[model::jointIndex(static_cast<model::Leg>(leg), model::JointKind::Wheel)].tau_ff += dtau;
 }
