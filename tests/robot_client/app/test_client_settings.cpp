@@ -29,6 +29,12 @@ std::string shippedConfig() {
   return s.str();
 }
 
+// What parsing `text` (beside the shipped configuration) throws, as E's message (test::errorOf).
+template <class E = std::exception>
+std::string parseError(const std::string& text) {
+  return test::errorOf<E>([&] { return parseClientSettings(text, kOrigin); });
+}
+
 TEST(ClientSettings, ShippedConfigParsesAndValidates) {
   const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   EXPECT_DOUBLE_EQ(s.loop.period_s, 0.001);
@@ -45,21 +51,19 @@ TEST(ClientSettings, ShippedConfigParsesAndValidates) {
 
 TEST(ClientSettings, UnknownKeyIsNamed) {
   const std::string text = replaceFirst(shippedConfig(), "  cpu: -1 ", "  cpu: -1\n  cpus: 2 ");
-  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
-              test::HasSubstr("unknown key 'loop.cpus'"));
+  EXPECT_THAT(parseError<std::runtime_error>(text), test::HasSubstr("unknown key 'loop.cpus'"));
 }
 
 TEST(ClientSettings, MissingKeyIsNamed) {
   const std::string text = replaceFirst(shippedConfig(), "  damping_kd: 1.5", "");
-  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
+  EXPECT_THAT(parseError<std::runtime_error>(text),
               test::HasSubstr("missing key 'safety.damping_kd'"));
 }
 
 TEST(ClientSettings, OutOfRangeValueNamesFieldAndRange) {
   const std::string text = replaceFirst(shippedConfig(), "period_s: 0.001", "period_s: 0.5");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); }),
-      test::HasSubstr("loop.period_s must be in [0.0001, 0.01]"));
+  EXPECT_THAT(parseError<std::invalid_argument>(text),
+              test::HasSubstr("loop.period_s must be in [0.0001, 0.01]"));
 }
 
 TEST(ClientSettings, TheLegsIntegralIsReadAndBounded) {
@@ -68,13 +72,11 @@ TEST(ClientSettings, TheLegsIntegralIsReadAndBounded) {
   EXPECT_DOUBLE_EQ(s.posture_integral.max_force_n, 40.0);
   EXPECT_TRUE(s.jump_leg_support);
   const std::string big = replaceFirst(shippedConfig(), "max_force_n: 40.0", "max_force_n: 400.0");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(big, kOrigin); }),
-      test::HasSubstr("nmpc.posture_integral.max_force_n must be in [0, 200]"));
+  EXPECT_THAT(parseError<std::invalid_argument>(big),
+              test::HasSubstr("nmpc.posture_integral.max_force_n must be in [0, 200]"));
   const std::string missing = replaceFirst(shippedConfig(), "    band_m: 0.05", "");
-  EXPECT_THAT(
-      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, kOrigin); }),
-      test::HasSubstr("missing key 'nmpc.posture_integral.band_m'"));
+  EXPECT_THAT(parseError<std::runtime_error>(missing),
+              test::HasSubstr("missing key 'nmpc.posture_integral.band_m'"));
 }
 
 TEST(ClientSettings, TheRouteIsReadAndBounded) {
@@ -84,13 +86,11 @@ TEST(ClientSettings, TheRouteIsReadAndBounded) {
   EXPECT_DOUBLE_EQ(s.route.min_speed_m_s, 0.5);
   const std::string wide =
       replaceFirst(shippedConfig(), "max_heading_offset_rad: 0.15", "max_heading_offset_rad: 0.9");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(wide, kOrigin); }),
-      test::HasSubstr("nmpc.route.max_heading_offset_rad must be in [0, 0.5]"));
+  EXPECT_THAT(parseError<std::invalid_argument>(wide),
+              test::HasSubstr("nmpc.route.max_heading_offset_rad must be in [0, 0.5]"));
   const std::string missing = replaceFirst(shippedConfig(), "    min_speed_m_s: 0.5", "");
-  EXPECT_THAT(
-      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, kOrigin); }),
-      test::HasSubstr("missing key 'nmpc.route.min_speed_m_s'"));
+  EXPECT_THAT(parseError<std::runtime_error>(missing),
+              test::HasSubstr("missing key 'nmpc.route.min_speed_m_s'"));
 }
 
 TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
@@ -110,14 +110,13 @@ TEST(ClientSettings, ANewScenarioIsAYamlEntryAndIsValidatedUnderItsName) {
   EXPECT_EQ(s.scenarios.back().name, "hop");
   EXPECT_EQ(s.scenario("hop").event, planner::TargetEvent::Apex);
   const std::string bad = replaceFirst(hop, "stand_s: 1.0", "stand_s: -1.0");
-  EXPECT_THAT(test::errorOf<std::invalid_argument>(
-                  [&] { return parseClientSettings(config + bad, kOrigin); }),
+  EXPECT_THAT(parseError<std::invalid_argument>(config + bad),
               test::HasSubstr("scenarios.hop.stand_s"));
 }
 
 TEST(ClientSettings, AfterLandingModeIsOneOfStopAndRollOn) {
   const std::string text = replaceFirst(shippedConfig(), "mode: roll_on", "mode: hover");
-  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
+  EXPECT_THAT(parseError<std::runtime_error>(text),
               test::HasSubstr("'hover' is not one of stop, roll_on"));
   const std::string fast = replaceFirst(shippedConfig(), "speed_m_s: 3.0\n", "speed_m_s: 9.0\n");
   EXPECT_THROW((void)parseClientSettings(fast, kOrigin), std::invalid_argument);
@@ -127,9 +126,7 @@ TEST(ClientSettings, PlanRetriesAreReadAndBounded) {
   const ClientSettings s = parseClientSettings(shippedConfig(), kOrigin);
   EXPECT_EQ(s.planner.retries, 4);
   const std::string many = replaceFirst(shippedConfig(), "  retries: 4 ", "  retries: 9 ");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(many, kOrigin); }),
-      test::HasSubstr("planner.retries"));
+  EXPECT_THAT(parseError<std::invalid_argument>(many), test::HasSubstr("planner.retries"));
 }
 
 // The executor's gains are config/jump_executor.yaml, found beside the configuration (the file
@@ -158,9 +155,7 @@ TEST(ClientSettings, TheExecutorIsTheJumpExecutorFileBesideTheConfiguration) {
   // The inline section of the configurations before the file is refused by name.
   const std::string inline_section = replaceFirst(
       shippedConfig(), "executor_file: jump_executor.yaml", "executor:\n  flight_kp: 80.0");
-  EXPECT_THAT(test::errorOf<std::runtime_error>(
-                  [&] { return parseClientSettings(inline_section, kOrigin); }),
-              test::HasSubstr("executor_file"));
+  EXPECT_THAT(parseError<std::runtime_error>(inline_section), test::HasSubstr("executor_file"));
 }
 
 TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
@@ -173,17 +168,15 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   // Landing on top of it needs a CoM height above its top.
   const std::string low =
       replaceFirst(shippedConfig(), "com_height_m: 0.519", "com_height_m: 0.26");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(low, kOrigin); }),
-      test::HasSubstr("scenarios.platform.target.com_height_m"));
+  EXPECT_THAT(parseError<std::invalid_argument>(low),
+              test::HasSubstr("scenarios.platform.target.com_height_m"));
   // The roll-on's margin to the platform's far end: optional (0.5 m), and bounded.
   EXPECT_DOUBLE_EQ(s.scenario("platform").edge_margin_m, 0.5);
   EXPECT_DOUBLE_EQ(s.scenario("forward").edge_margin_m, 0.5);
   const std::string bad =
       replaceFirst(shippedConfig(), "edge_margin_m: 0.5", "edge_margin_m: -0.2");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(bad, kOrigin); }),
-      test::HasSubstr("scenarios.platform.after_landing.edge_margin_m must be in [0, 10]"));
+  EXPECT_THAT(parseError<std::invalid_argument>(bad),
+              test::HasSubstr("scenarios.platform.after_landing.edge_margin_m must be in [0, 10]"));
 }
 
 // A touchdown target's CoM height is where the planner's own presets put it: the CoM of the robot
@@ -228,15 +221,12 @@ TEST(ClientSettings, ACourseListsItsWallsInOrder) {
   EXPECT_EQ(course.jumps(), 2);
   EXPECT_EQ(s.scenario("forward").jumps(), 1);
   EXPECT_EQ(s.scenario("vertical").jumps(), 1);
-  const auto message = [](const std::string& text) -> std::string {
-    return test::errorOf([&] { return parseClientSettings(text, kOrigin); });
-  };
   // Out of order (or too close to the previous wall's far face).
-  EXPECT_THAT(message(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, 15.0]")),
+  EXPECT_THAT(parseError(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, 15.0]")),
               test::HasSubstr("scenarios.course.wall.x_m[1]"));
-  EXPECT_THAT(message(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: []")),
+  EXPECT_THAT(parseError(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: []")),
               test::HasSubstr("scenarios.course.wall.x_m must name at least one wall"));
-  EXPECT_THAT(message(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, far]")),
+  EXPECT_THAT(parseError(replaceFirst(shippedConfig(), "x_m: [14.0, 24.0]", "x_m: [14.0, far]")),
               test::HasSubstr("course.wall.x_m' has the wrong type"));
 }
 
@@ -271,19 +261,17 @@ TEST(ClientSettings, ABackwardRunUpIsBoundedAndHasNoWall) {
   const std::string back = shippedConfig();
   ASSERT_NE(back.find(anchor + "-1.0"), std::string::npos);
   EXPECT_DOUBLE_EQ(parseClientSettings(back, kOrigin).scenario("backflip").run_up_speed_m_s, -1.0);
-  const auto message = [](const std::string& text) {
-    return test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); });
-  };
   const std::string too_fast = replaceFirst(back, anchor + "-1.0", anchor + "-1.2");
-  EXPECT_THAT(message(too_fast),
+  EXPECT_THAT(parseError<std::invalid_argument>(too_fast),
               test::HasSubstr("scenarios.backflip.run_up_speed_m_s must be in [-1, 5]"))
-      << message(too_fast);
+      << parseError<std::invalid_argument>(too_fast);
   // Walls stand ahead: a forward scenario's wall with a backward run-up is refused.
   const std::string into_wall =
       replaceFirst(shippedConfig(), "run_up_speed_m_s: 3.0", "run_up_speed_m_s: -0.5");
   ASSERT_NE(into_wall, shippedConfig());
-  EXPECT_THAT(message(into_wall), test::HasSubstr("needs wall.enabled false"))
-      << message(into_wall);
+  EXPECT_THAT(parseError<std::invalid_argument>(into_wall),
+              test::HasSubstr("needs wall.enabled false"))
+      << parseError<std::invalid_argument>(into_wall);
 }
 
 // A backward run-up measured past the planner's lowest speed is requested at it, along the
@@ -342,32 +330,27 @@ TEST(ClientRequest, TheTakeoffPostureReplacesANearbyCrouch) {
 }
 
 TEST(ClientSettings, TheTakeoffPostureIsBoundedAndComplete) {
-  const auto message = [](const std::string& text) {
-    return test::errorOf<std::invalid_argument>([&] { return parseClientSettings(text, kOrigin); });
-  };
   const std::string shipped = shippedConfig();
   const std::string far = replaceFirst(shipped, "max_offset_rad: 0.03", "max_offset_rad: 0.3");
   ASSERT_NE(far, shipped);
-  EXPECT_THAT(message(far),
+  EXPECT_THAT(parseError<std::invalid_argument>(far),
               test::HasSubstr("scenarios.backflip.takeoff_posture.max_offset_rad must be in"))
-      << message(far);
+      << parseError<std::invalid_argument>(far);
   const std::string knee = replaceFirst(shipped, "      kfe_rad: -2.0", "      kfe_rad: -3.0");
   ASSERT_NE(knee, shipped);
-  EXPECT_THAT(message(knee), test::HasSubstr("takeoff_posture.kfe_rad must be in"))
-      << message(knee);
+  EXPECT_THAT(parseError<std::invalid_argument>(knee),
+              test::HasSubstr("takeoff_posture.kfe_rad must be in"))
+      << parseError<std::invalid_argument>(knee);
   const std::string missing = replaceFirst(shipped, "      hfe_rad: 1.0", "      hfe_radius: 1.0");
   ASSERT_NE(missing, shipped);
-  EXPECT_THAT(
-      test::errorOf<std::runtime_error>([&] { return parseClientSettings(missing, kOrigin); }),
-      test::HasSubstr("missing key 'scenarios.backflip.takeoff_posture.hfe_rad'"));
+  EXPECT_THAT(parseError<std::runtime_error>(missing),
+              test::HasSubstr("missing key 'scenarios.backflip.takeoff_posture.hfe_rad'"));
 }
 
 TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
   const std::string on = replaceFirst(shippedConfig(), "    enabled: false\n    root_ca_file",
                                       "    enabled: true\n    root_ca_file");
-  EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return parseClientSettings(on, kOrigin); }),
-      test::HasSubstr("planner.tls.root_ca_file"));
+  EXPECT_THAT(parseError<std::invalid_argument>(on), test::HasSubstr("planner.tls.root_ca_file"));
   const std::string cert_only =
       replaceFirst(shippedConfig(), "cert_file: \"\"", "cert_file: \"robot.pem\"");
   EXPECT_THROW((void)parseClientSettings(cert_only, kOrigin), std::invalid_argument);
@@ -383,7 +366,7 @@ TEST(ClientSettings, TlsNeedsItsCaAndCertificateWithKey) {
 
 TEST(ClientSettings, BadEnumListsTheChoices) {
   const std::string text = replaceFirst(shippedConfig(), "event: touchdown", "event: landing");
-  EXPECT_THAT(test::errorOf<std::runtime_error>([&] { return parseClientSettings(text, kOrigin); }),
+  EXPECT_THAT(parseError<std::runtime_error>(text),
               test::HasSubstr("is not one of apex, touchdown"));
 }
 
