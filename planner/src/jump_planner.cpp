@@ -331,8 +331,11 @@ void PlanRun::search(const Eigen::MatrixXd& first_population) {
     r.de = de::Solver(first).solve(problem_, first_population, options_.cancel);
     attempt_bests_.emplace_back(r.de.best.cost, r.de.best_x);
   }
+  const bool beyond_planned = settings_.de_restart_while_budget;
   for (int restart = 1;
-       !r.de.best.feasible && restart <= settings_.de_restarts && trapped(r.de.best_x); ++restart) {
+       !r.de.best.feasible && (restart <= settings_.de_restarts || beyond_planned) &&
+       trapped(r.de.best_x);
+       ++restart) {
     // Polish between attempts: a trapped attempt often ends next to a feasible plan that the
     // polish reaches (forward preset: 5 of 10 first attempts), and the attempts after it are
     // then not needed. The points polished here are not polished again below.

@@ -316,6 +316,8 @@ void readDe(const YAML::Node& n, PlannerSettings& s) {
        {"target_cost", number(d.target_cost)},
        {"bounded_trials", [&](const YAML::Node& v) { d.bounded_trials = v.as<bool>(); }},
        {"restarts", integer(s.de_restarts)},
+       {"restart_while_budget",
+        [&](const YAML::Node& v) { s.de_restart_while_budget = v.as<bool>(); }},
        {"warm_start_cloud", integer(s.warm_start_cloud)},
        {"warm_start_spread", number(s.warm_start_spread)},
        {"threads", integer(d.threads)},

@@ -217,9 +217,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // initial guess below; 10: a backflip's hind roll from its phase-1 speed at t1, which no probe
   // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below;
   // 12: takeoff_unload_s below; 13: the backflip's hind knee clearance and front brake share
-  // below; 14: balanced_stance below; 15: the loaded tyre below; 16: the tyre's sink below),
-  // which the probes below, run without the polish, do not see.
-  w.put(std::uint32_t{16});
+  // below; 14: balanced_stance below; 15: the loaded tyre below; 16: the tyre's sink below; 17: the
+  // restarts while the budget lasts), which the probes below, run without the polish, do not see.
+  w.put(std::uint32_t{17});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -235,6 +235,7 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   w.put(d.shade_memory_size);
   // d.threads, d.keep_log and d.bounded_trials do not change the result (same seed, same plan).
   w.put(s.de_restarts);
+  w.putBool(s.de_restart_while_budget);
   w.put(s.warm_start_cloud);
   w.putDouble(s.warm_start_spread);
   w.putBool(s.polish);

@@ -103,6 +103,15 @@ TEST(PlannerSettings, BalancedStanceIsReadAndCheckedAsABoolean) {
               test::HasSubstr("physics.balanced_stance"));
 }
 
+TEST(PlannerSettings, RestartWhileBudgetIsReadAndCheckedAsABoolean) {
+  EXPECT_TRUE(PlannerSettings().de_restart_while_budget);
+  EXPECT_FALSE(PlannerSettings::fromYamlString("de: {restart_while_budget: false}\n")
+                   .de_restart_while_budget);
+  EXPECT_THAT(test::errorOf<std::runtime_error>(
+                  [] { (void)PlannerSettings::fromYamlString("de: {restart_while_budget: 3}\n"); }),
+              test::HasSubstr("de.restart_while_budget"));
+}
+
 TEST(PlannerSettings, ContactChainIsReadAndCheckedByName) {
   EXPECT_EQ(PlannerSettings().contact_chain, ContactChain::FromStart);
   EXPECT_EQ(

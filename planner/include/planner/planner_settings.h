@@ -224,7 +224,12 @@ struct PlannerSettings {
   int warm_start_cloud = 12;
   double warm_start_spread = 0.02;
   int de_restarts = 3;  ///< fresh-population restarts after an infeasible stagnation
-  bool polish = true;   ///< run the polish on the DE's best candidate
+  /// After the de_restarts planned restarts, a best still violating a constraint gets further
+  /// attempts while the evaluation budget left holds ten generations (each attempt at most
+  /// max_evaluations / (de_restarts + 1)): the attempts stagnate well before their budget, and
+  /// a plan that violates a constraint is no plan (docs/planner.md, "Restarts").
+  bool de_restart_while_budget = true;
+  bool polish = true;  ///< run the polish on the DE's best candidate
   /// The polish's NLP solver: the planner's dense SQP (the default: 3-6 times faster from the
   /// same DE point, bench_polish) or Ipopt 3.11 + MUMPS (docs/planner.md).
   PolishSolver polish_solver = PolishSolver::Sqp;
