@@ -165,6 +165,7 @@ TEST(ClientSettings, APlatformIsAWallTheTargetLandsOn) {
   EXPECT_FALSE(s.scenario("vertical").landsOnWall());
   EXPECT_TRUE(s.scenario("vertical").accept_closest_approach);
   EXPECT_FALSE(s.scenario("forward").accept_closest_approach);
+  EXPECT_TRUE(s.scenario("platform").accept_closest_approach);
   // Landing on top of it needs a CoM height above its top.
   const std::string low =
       replaceFirst(shippedConfig(), "com_height_m: 0.519", "com_height_m: 0.26");
