@@ -9,6 +9,7 @@
 #   robot_client --backend sim --config config/robot_client.yaml --planner HOST:PORT \
 #     --scenario forward --seed SEED --plant failure.yaml
 # Usage: scripts/bench-robust.sh [build dir] [trials] [scenario] [first seed] [robot_client options...]
+# The flips (backflip, backflip_42nm) get their own service, as scripts/run-e2e.sh starts it.
 # Trial i uses seed = first seed + i - 1 for both the plant draw and the sensor noise.
 # WJ_WALL_ERROR=seen (default) | unseen: the drawn wall position error is seen by the range
 # sensor (the configuration is wrong, the sensor measures the real wall) or not (the sensor has
@@ -40,8 +41,15 @@ WALL_ERROR=${WJ_WALL_ERROR:-seen}
 case "$WALL_ERROR" in seen|unseen) ;; *) echo "WJ_WALL_ERROR must be seen or unseen, got '$WALL_ERROR'" >&2; exit 2;; esac
 source scripts/planner-server.sh
 trap 'stop_planner_server; rm -rf "$WORK"' EXIT
+# The flips' robots and planner settings differ: their service runs as scripts/run-e2e.sh starts
+# it (the scenario's actuators_file, the flip's settings file).
+case "$SCENARIO" in
+  backflip) SERVICE=(actuators-57nm.yaml config/backflip-57nm.yaml) ;;
+  backflip_42nm) SERVICE=(actuators.yaml config/backflip-42nm.yaml) ;;
+  *) SERVICE=() ;;
+esac
 start_planner_server "$BIN" "$PORT" "$WORK/plan_cache.sqlite" "$WORK/planner_server.yaml" \
-  "$WORK/server.log"
+  "$WORK/server.log" "${SERVICE[@]}"
 
 # The plant of trial `seed`: the campaign's ranges, drawn by a generator seeded with it.
 draw_plant() {
@@ -125,6 +133,8 @@ def classify(d, rc):
         return "hit_wall"
     if damping or sim.get("body_touched_ground") or "NOT upright" in d["verdict"]:
         return "fell_on_landing"
+    if "DID NOT TURN" in d["verdict"]:
+        return "did_not_turn"
     if "DID NOT CLEAR" in d["verdict"]:
         return "did_not_clear"
     if "DID NOT ROLL ON" in d["verdict"]:

@@ -180,6 +180,15 @@ void ControlLoop::estimate() {
   for (int leg = 0; leg < model::kNumLegs; ++leg)
     contact[leg] = !jumping || rolling_periods_[leg] >= settle_periods_;
   estimator_.update(sensors_, contact, backend_.controlPeriod());
+  // In a jump, a wheel whose rolling measurement the estimator's gate refused slips beyond what
+  // its torque shows (a floor with less friction than traction_mu): it settles again before it
+  // rejoins, so that a slip does not read as the filter's divergence (every wheel refused for
+  // max_consecutive_rejections updates; docs/estimator.md, "Slipping wheels").
+  if (jumping) {
+    const estimation::EstimatedState& e = estimator_.state();
+    for (int leg = 0; leg < model::kNumLegs; ++leg)
+      if (contact[leg] && !e.velocity_used[leg]) rolling_periods_[leg] = 0;
+  }
   if (!jumping) senseRange();
   const estimation::EstimatedState& s = estimator_.state();
   Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # End-to-end tests of robot_client against a real planner_server on loopback (ctest "app.e2e.*").
 #   e2e_test.sh BIN_DIR SOURCE_DIR forward|vertical|abort|platform|platform_tuck|course|backflip|
-#               backflip_42nm
+#               backflip_42nm|backflip_42nm_slip
 # forward: run-up, plan, jump over the 0.25 m wall through emulated CAN frames, land, roll on
 # at the run-up speed, stop.
 # vertical: the standing jump from the crouch, as high as the planner reaches (>= 0.58 m base
@@ -11,7 +11,9 @@
 # backflip: rolling backward (1 m/s) on the 57 Nm-knee robot (its own service): the robot asks
 # for the flip from its take-off posture, flies the verified plan, turns a full turn, lands
 # upright and stops (docs/backflip.md, "Session 15"). backflip_42nm: the same on the real 42 Nm
-# robot, its service on config/backflip-42nm.yaml's planner settings.
+# robot, its service on config/backflip-42nm.yaml's planner settings. backflip_42nm_slip: the
+# same on a plant of the robustness campaign with a floor of friction 0.58, where the hind
+# wheels slip in the push (the estimator must not declare itself diverged).
 # abort: the service is unreachable; the robot must not jump and
 # must stop before the wall. The test configuration gives the planner a longer deadline and the
 # wall more run-up room than the shipped one, because CI machines are slower and shared.
@@ -51,7 +53,7 @@ target="127.0.0.1:${PORT}"
 if [ "$CASE" = backflip ]; then
   start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators-57nm.yaml \
     config/backflip-57nm.yaml
-elif [ "$CASE" = backflip_42nm ]; then
+elif [ "$CASE" = backflip_42nm ] || [ "$CASE" = backflip_42nm_slip ]; then
   start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators.yaml \
     config/backflip-42nm.yaml
 elif [ "$CASE" != abort ]; then
@@ -66,6 +68,11 @@ case "$CASE" in
   forward) extra=(--via-can) ;;
   abort) scenario=forward ;;
   platform_tuck) scenario=platform ;;
+  # The 42 Nm flip on a robot that is not the model, on a floor of friction 0.58 (below the
+  # client's traction_mu): its hind wheels slip in the hind-only push (docs/robot-client.md).
+  backflip_42nm_slip)
+    scenario=backflip_42nm
+    extra=(--plant "$SRC/tests/robot_client/app/plants/backflip_42nm_slip.yaml") ;;
 esac
 rc=0
 "$BIN/robot_client" --backend sim "${extra[@]}" --config "$WORK/client.yaml" --planner "$target" \
@@ -77,8 +84,9 @@ d = json.load(open(sys.argv[1])); case = sys.argv[2]; rc = int(sys.argv[3])
 def check(cond, what):
     if not cond:
         print("FAILED:", what); sys.exit(1)
-if case in ("backflip", "backflip_42nm"):
-    robot = {"backflip": ("actuators-57nm.yaml", 57.0), "backflip_42nm": ("actuators.yaml", 42.0)}
+if case in ("backflip", "backflip_42nm", "backflip_42nm_slip"):
+    robot = {"backflip": ("actuators-57nm.yaml", 57.0), "backflip_42nm": ("actuators.yaml", 42.0),
+             "backflip_42nm_slip": ("actuators.yaml", 42.0)}
     check(d["actuators_file"] == robot[case][0], d["actuators_file"])
     check(d["max_torque"]["KFE"]["limit_nm"] == robot[case][1], d["max_torque"]["KFE"])
     # A flip, every time: 10 of 10 noise seeds on each robot (docs/backflip.md, "Session 15").
@@ -96,7 +104,10 @@ if case in ("backflip", "backflip_42nm"):
     # The hind wheels slip when the front pair lifts; the estimator must not follow them
     # (docs/estimator.md, "Slipping wheels in a jump"): velocity RMS 0.047-0.054 m/s with the
     # traction check, 0.076-0.091 m/s without it (both robots, session 16).
-    check(sim["estimator_velocity_rms_m_s"] < 0.065,
+    # On the slippery floor the slip itself is refused and the IMU carries the estimate for
+    # longer (0.055-0.077 m/s over the campaign's four such trials, session 29).
+    bound = 0.09 if case == "backflip_42nm_slip" else 0.065
+    check(sim["estimator_velocity_rms_m_s"] < bound,
           f"estimator velocity RMS {sim['estimator_velocity_rms_m_s']:.3f} m/s")
     print("OK", case); sys.exit(0)
 if case == "abort":
