@@ -60,17 +60,17 @@ fi
 # The backflip's robot differs (actuators-57nm.yaml): a service of its own, same port.
 if wanted backflip; then
   stop_planner_server
+  scenario_service backflip
   start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_57nm.sqlite" \
-    "$WORK/planner_server_57nm.yaml" "$WORK/server_57nm.log" actuators-57nm.yaml \
-    config/backflip-57nm.yaml
+    "$WORK/planner_server_57nm.yaml" "$WORK/server_57nm.log" "${SCENARIO_SERVICE[@]}"
   run_seeds backflip
 fi
 # The real robot's flip (42 Nm): its planner settings file, same port.
 if wanted backflip_42nm; then
   stop_planner_server
+  scenario_service backflip_42nm
   start_planner_server "$BIN" "$PORT" "$WORK/plan_cache_42nm_flip.sqlite" \
-    "$WORK/planner_server_42nm_flip.yaml" "$WORK/server_42nm_flip.log" actuators.yaml \
-    config/backflip-42nm.yaml
+    "$WORK/planner_server_42nm_flip.yaml" "$WORK/server_42nm_flip.log" "${SCENARIO_SERVICE[@]}"
   run_seeds backflip_42nm
 fi
 /usr/bin/python3 - "$WORK" "$SEEDS" "$SCENARIOS" <<'PY'

@@ -41,15 +41,10 @@ WALL_ERROR=${WJ_WALL_ERROR:-seen}
 case "$WALL_ERROR" in seen|unseen) ;; *) echo "WJ_WALL_ERROR must be seen or unseen, got '$WALL_ERROR'" >&2; exit 2;; esac
 source scripts/planner-server.sh
 trap 'stop_planner_server; rm -rf "$WORK"' EXIT
-# The flips' robots and planner settings differ: their service runs as scripts/run-e2e.sh starts
-# it (the scenario's actuators_file, the flip's settings file).
-case "$SCENARIO" in
-  backflip) SERVICE=(actuators-57nm.yaml config/backflip-57nm.yaml) ;;
-  backflip_42nm) SERVICE=(actuators.yaml config/backflip-42nm.yaml) ;;
-  *) SERVICE=() ;;
-esac
+# The flips' robots and planner settings differ (scenario_service).
+scenario_service "$SCENARIO"
 start_planner_server "$BIN" "$PORT" "$WORK/plan_cache.sqlite" "$WORK/planner_server.yaml" \
-  "$WORK/server.log" "${SERVICE[@]}"
+  "$WORK/server.log" "${SCENARIO_SERVICE[@]}"
 
 # The plant of trial `seed`: the campaign's ranges, drawn by a generator seeded with it.
 draw_plant() {

@@ -42,6 +42,18 @@ start_planner_server() {
   done
 }
 
+# The service a robot client scenario needs, as start_planner_server's last two arguments, in the
+# array SCENARIO_SERVICE: the flips' robots and planner settings differ (the 57 Nm knee of the
+# scenario's actuators_file with config/backflip-57nm.yaml; the real 42 Nm robot with
+# config/backflip-42nm.yaml, docs/backflip.md); every other scenario has the shipped service (empty).
+scenario_service() {
+  case "$1" in
+    backflip) SCENARIO_SERVICE=(actuators-57nm.yaml config/backflip-57nm.yaml) ;;
+    backflip_42nm) SCENARIO_SERVICE=(actuators.yaml config/backflip-42nm.yaml) ;;
+    *) SCENARIO_SERVICE=() ;;
+  esac
+}
+
 stop_planner_server() {
   if [ -n "${SERVER:-}" ]; then kill "$SERVER" 2>/dev/null || true; wait "$SERVER" 2>/dev/null || true; fi
 }

@@ -44,9 +44,9 @@ run platform
 run course
 # The backflip's robot (the scenario's actuators_file) differs: the service is restarted on it.
 stop_planner_server
+scenario_service backflip
 start_planner_server "$BIN" "$PORT" "$(pwd)/out/plan_cache_57nm.sqlite" \
-  out/planner_server_57nm.yaml out/planner_server_57nm.log actuators-57nm.yaml \
-  config/backflip-57nm.yaml
+  out/planner_server_57nm.yaml out/planner_server_57nm.log "${SCENARIO_SERVICE[@]}"
 # The client's backflip counts like every other scenario (10 of 10 noise seeds flipped, landed
 # upright and stopped: docs/backflip.md, "Session 15"); its summary prints the knee's peak torque
 # against its limit and the rotation at touchdown.
@@ -55,9 +55,9 @@ run backflip
 # settings (config/backflip-42nm.yaml, the file sim_jump's 42 Nm flip uses; docs/backflip.md,
 # "Session 16").
 stop_planner_server
+scenario_service backflip_42nm
 start_planner_server "$BIN" "$PORT" "$(pwd)/out/plan_cache_42nm_flip.sqlite" \
-  out/planner_server_42nm_flip.yaml out/planner_server_42nm_flip.log actuators.yaml \
-  config/backflip-42nm.yaml
+  out/planner_server_42nm_flip.yaml out/planner_server_42nm_flip.log "${SCENARIO_SERVICE[@]}"
 run backflip_42nm
 echo "telemetry and figures in out/ (e2e_*.csv, e2e_*.png; the backflip's knees over the take-off:"
 echo "  out/e2e_backflip_knees.png); service logs out/planner_server*.log"

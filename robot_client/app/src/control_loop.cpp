@@ -184,13 +184,13 @@ void ControlLoop::estimate() {
   // its torque shows (a floor with less friction than traction_mu): it settles again before it
   // rejoins, so that a slip does not read as the filter's divergence (every wheel refused for
   // max_consecutive_rejections updates; docs/estimator.md, "Slipping wheels").
-  if (jumping) {
-    const estimation::EstimatedState& e = estimator_.state();
-    for (int leg = 0; leg < model::kNumLegs; ++leg)
-      if (contact[leg] && !e.velocity_used[leg]) rolling_periods_[leg] = 0;
-  }
-  if (!jumping) senseRange();
   const estimation::EstimatedState& s = estimator_.state();
+  if (jumping) {
+    for (int leg = 0; leg < model::kNumLegs; ++leg)
+      if (contact[leg] && !s.velocity_used[leg]) rolling_periods_[leg] = 0;
+  } else {
+    senseRange();
+  }
   Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
   X_WB.linear() = s.q_WB.toRotationMatrix();
   X_WB.translation() = s.p_WB;

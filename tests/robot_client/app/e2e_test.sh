@@ -50,14 +50,10 @@ if [ "$CASE" = platform_tuck ]; then
 fi
 
 target="127.0.0.1:${PORT}"
-if [ "$CASE" = backflip ]; then
-  start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators-57nm.yaml \
-    config/backflip-57nm.yaml
-elif [ "$CASE" = backflip_42nm ] || [ "$CASE" = backflip_42nm_slip ]; then
-  start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" actuators.yaml \
-    config/backflip-42nm.yaml
-elif [ "$CASE" != abort ]; then
-  start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log"
+if [ "$CASE" != abort ]; then
+  scenario_service "${CASE%_slip}"  # the flips' robot and settings (backflip_42nm_slip: the 42 Nm)
+  start_planner_server "$BIN" "$PORT" "" "$WORK/server.yaml" "$WORK/server.log" \
+    "${SCENARIO_SERVICE[@]}"
 else
   target="127.0.0.1:1"  # nothing listens there
 fi
@@ -85,10 +81,10 @@ def check(cond, what):
     if not cond:
         print("FAILED:", what); sys.exit(1)
 if case in ("backflip", "backflip_42nm", "backflip_42nm_slip"):
-    robot = {"backflip": ("actuators-57nm.yaml", 57.0), "backflip_42nm": ("actuators.yaml", 42.0),
-             "backflip_42nm_slip": ("actuators.yaml", 42.0)}
-    check(d["actuators_file"] == robot[case][0], d["actuators_file"])
-    check(d["max_torque"]["KFE"]["limit_nm"] == robot[case][1], d["max_torque"]["KFE"])
+    robot = {"backflip": ("actuators-57nm.yaml", 57.0), "backflip_42nm": ("actuators.yaml", 42.0)}
+    flip = case.removesuffix("_slip")
+    check(d["actuators_file"] == robot[flip][0], d["actuators_file"])
+    check(d["max_torque"]["KFE"]["limit_nm"] == robot[flip][1], d["max_torque"]["KFE"])
     # A flip, every time: 10 of 10 noise seeds on each robot (docs/backflip.md, "Session 15").
     check(d["plan"]["verification"] == "passed", f"no verified flip: {d['plan']['summary']}")
     check(abs(d["plan"]["predicted_touchdown_rotation_rad"] - 6.283) < 0.3,
