@@ -47,6 +47,7 @@ start_planner_server() {
 # scenario's actuators_file with config/backflip-57nm.yaml; the real 42 Nm robot with
 # config/backflip-42nm.yaml, docs/backflip.md); every other scenario has the shipped service (empty).
 scenario_service() {
+  # shellcheck disable=SC2034  # SCENARIO_SERVICE is this function's result, read by the caller
   case "$1" in
     backflip) SCENARIO_SERVICE=(actuators-57nm.yaml config/backflip-57nm.yaml) ;;
     backflip_42nm) SCENARIO_SERVICE=(actuators.yaml config/backflip-42nm.yaml) ;;
