@@ -10,7 +10,7 @@ namespace wj::server {
 
 namespace {
 
-constexpr std::uint8_t kFormatVersion = 2;
+constexpr std::uint8_t kFormatVersion = 3;
 
 class Writer {
  public:
@@ -90,7 +90,8 @@ std::string encodeSolution(const CachedSolution& s) {
   w.f64(s.t1);
   w.f64(s.t2);
   w.f64(s.t3);
-  w.u8(static_cast<std::uint8_t>((s.feasible ? 1 : 0) | (s.de_complete ? 2 : 0)));
+  w.u8(static_cast<std::uint8_t>((s.feasible ? 1 : 0) | (s.de_complete ? 2 : 0) |
+                                 (s.constraints_ok ? 4 : 0)));
   w.f64(s.de_cost);
   w.f64(s.final_cost);
   w.u64(s.seed);
@@ -118,7 +119,7 @@ std::string encodeSolution(const CachedSolution& s) {
 std::optional<CachedSolution> decodeSolution(std::string_view payload) {
   Reader r(payload);
   const std::uint8_t version = r.u8();
-  if ((version != kFormatVersion && version != 1) || !r.ok()) return std::nullopt;
+  if (version < 1 || version > kFormatVersion || !r.ok()) return std::nullopt;
   if (r.u8() != planner::kNumDecision) return std::nullopt;
   CachedSolution s;
   for (double& v : s.u) v = r.f64();
@@ -126,9 +127,12 @@ std::optional<CachedSolution> decodeSolution(std::string_view payload) {
   s.t2 = r.f64();
   s.t3 = r.f64();
   const std::uint8_t flags = r.u8();
-  if (flags > 3) return std::nullopt;
+  if (flags > (version >= 3 ? 7 : 3)) return std::nullopt;
   s.feasible = (flags & 1) != 0;
   s.de_complete = (flags & 2) != 0;
+  // Before format 3 only a feasible solution is known to have met every constraint.
+  s.constraints_ok = version >= 3 ? (flags & 4) != 0 : s.feasible;
+  if (s.feasible && !s.constraints_ok) return std::nullopt;
   s.de_cost = r.f64();
   s.final_cost = r.f64();
   s.seed = r.u64();

@@ -241,6 +241,7 @@ CachedSolution MissPipeline::compactSolution(const planner::PlannerResult& resul
   solution.t2 = answer.plan.t2;
   solution.t3 = answer.plan.t3;
   solution.feasible = chosen.evaluation.feasible;
+  solution.constraints_ok = chosen.evaluation.constraints_ok;
   solution.de_complete = de_complete;
   solution.max_evaluations = max_evaluations;
   solution.de_cost = result.de_cost;

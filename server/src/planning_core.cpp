@@ -23,6 +23,14 @@ PlanOutcome errorOutcome(ErrorCode code, const std::string& message) {
   return o;
 }
 
+/// A stored solution rebuilt at another caller's state within its bins (a slightly different
+/// v0 or posture) that no longer meets there what it met where it was computed: its target, or,
+/// for a closest approach to a target out of reach, every constraint (a margin that was nearly
+/// zero). The robot would refuse that plan, so the caller's state is planned for instead.
+bool lostAtThisState(const CachedSolution& stored, const planner::Evaluation& here) {
+  return (stored.feasible && !here.feasible) || (stored.constraints_ok && !here.constraints_ok);
+}
+
 }  // namespace
 
 //==============================================================================================
@@ -244,12 +252,10 @@ void PlanningCore::answerHit(const PlanRequest& request, const CacheKey& key,
     startComputation(request, key, call, BoundedExecutor::Lane::Internal);
     return;
   }
-  if (solution.feasible && !o.answer.evaluation.feasible) {
-    // Feasible where it was computed, infeasible at this caller's state (same bins, a
-    // slightly different v0 or posture, and a margin that was nearly zero): plan for this
-    // state instead of handing out a plan that would be refused.
-    spdlog::debug("cache hit {} infeasible at the request's state ({}); planning", key.hex(),
-                  o.answer.summary);
+  if (lostAtThisState(solution, o.answer.evaluation)) {
+    spdlog::debug("cache hit {} no longer meets its constraints or target at the request's "
+                  "state ({}); planning",
+                  key.hex(), o.answer.summary);
     hits_.fetch_sub(1);  // counted as a hit on arrival; the computation counts its miss
     startComputation(request, key, call, BoundedExecutor::Lane::Internal);
     return;
@@ -406,8 +412,7 @@ bool PlanningCore::answerFromPersisted(const std::shared_ptr<Computation>& c,
     return false;
   try {
     PlanAnswer a = answerFromSolution(*stored, request, c->key, PlanSource::CacheHit);
-    // Feasible where it was computed but not at this state (see submitHit): plan instead.
-    if (stored->feasible && !a.evaluation.feasible) return false;
+    if (lostAtThisState(*stored, a.evaluation)) return false;  // plan instead (answerHit)
     hits_.fetch_add(1);
     finishComputation(c, std::nullopt, std::move(a), stored, PlanSource::Coalesced);
     return true;
@@ -456,6 +461,8 @@ void PlanningCore::finishComputation(const std::shared_ptr<Computation>& c,
     try {
       PlanOutcome o;
       o.answer = answerFromSolution(*solution, caller.request, c->key, waiter_source);
+      if (lostAtThisState(*solution, o.answer.evaluation))
+        throw std::runtime_error("not at this waiter's state");  // plan instead (answerHit)
       finish(caller.call, std::move(o));
     } catch (const std::exception&) {
       startComputation(caller.request, keyOf(caller.request), caller.call,

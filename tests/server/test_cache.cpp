@@ -46,6 +46,7 @@ CachedSolution solution(double seed_value) {
   s.t2 = 0.3;
   s.t3 = 0.9 + seed_value * 1e-3;
   s.feasible = true;
+  s.constraints_ok = true;
   s.de_complete = true;
   s.final_cost = 1.0;
   s.verification.status = VerificationStatus::Passed;
@@ -166,12 +167,35 @@ TEST(CachedSolution, CodecRoundTripsAndRefusesDamage) {
   // The search's evaluation budget (format 2) round-trips; format 1 rows (without it) are still
   // read, with the evaluations the search used as its budget.
   EXPECT_EQ(back->max_evaluations, s.max_evaluations);
+  constexpr std::size_t kFlags = 2 + 8 * planner::kNumDecision + 3 * 8;  // the flags byte
   std::string v1 = payload.substr(0, payload.size() - 8);
   v1[0] = 1;
+  v1[kFlags] = 1 | 2;  // feasible, de_complete: format 1 has no other flag
   ASSERT_TRUE(decodeSolution(v1).has_value());
   EXPECT_EQ(decodeSolution(v1)->max_evaluations, 1234567);
   std::string v2_short = payload.substr(0, payload.size() - 8);
   EXPECT_FALSE(decodeSolution(v2_short).has_value());
+  // Whether every constraint held (format 3) round-trips; a closest approach holds them without
+  // being feasible. Older rows know it of their feasible solutions only, and a payload that
+  // calls a solution feasible with a constraint violated is refused.
+  EXPECT_EQ(static_cast<int>(payload[kFlags]), 1 | 2 | 4);
+  CachedSolution closest = s;
+  closest.feasible = false;
+  ASSERT_TRUE(decodeSolution(encodeSolution(closest)).has_value());
+  EXPECT_TRUE(decodeSolution(encodeSolution(closest))->constraints_ok);
+  EXPECT_FALSE(decodeSolution(encodeSolution(closest))->feasible);
+  closest.constraints_ok = false;
+  EXPECT_FALSE(decodeSolution(encodeSolution(closest))->constraints_ok);
+  std::string v2 = encodeSolution(closest);
+  v2[0] = 2;
+  EXPECT_FALSE(decodeSolution(v2)->constraints_ok);
+  v2[kFlags] = 1;  // feasible
+  EXPECT_TRUE(decodeSolution(v2)->constraints_ok);
+  v2[kFlags] = 4;  // format 2 has no such flag
+  EXPECT_FALSE(decodeSolution(v2).has_value());
+  CachedSolution contradiction = s;
+  contradiction.constraints_ok = false;
+  EXPECT_FALSE(decodeSolution(encodeSolution(contradiction)).has_value());
   CachedSolution nan = s;
   nan.u[3] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(decodeSolution(encodeSolution(nan)).has_value());

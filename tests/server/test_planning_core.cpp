@@ -365,6 +365,54 @@ TEST(PlanningCore, InfeasibleAnswerOfATooSmallBudgetIsRecomputedForALargerOne) {
   EXPECT_EQ(f.core->stats().cache_misses, 2u);
 }
 
+// A closest approach (a target out of reach, every constraint met) rebuilt at another state of
+// its bins can lose a constraint whose margin was nearly zero; the robot client refuses such a
+// plan and asks again. The service plans that caller's state instead, as it does for a feasible
+// hit that is no longer feasible there, and the better answer replaces the entry.
+TEST(PlanningCore, AClosestApproachThatLosesAConstraintAtTheCallersStateIsPlannedForIt) {
+  ServerConfig c = coreConfig();
+  c.verification.enabled = false;
+  // The shipped settings and their polish, which puts a closest approach on its constraints
+  // (the test settings' short unpolished search leaves it inside them).
+  c.planner.settings_file = WJ_CONFIG_DIR "/planner_settings.yaml";
+  c.planner.polish_min_budget_s = ServerConfig{}.planner.polish_min_budget_s;
+  Fixture f(c);
+  const PlanRequest first_state = request(0.0, 0.605);
+  const auto first = planSync(*f.core, first_state);
+  expectAnswer(first);
+  ASSERT_EQ(first.answer.source, PlanSource::CacheMiss);
+  ASSERT_FALSE(first.answer.evaluation.feasible);
+  ASSERT_TRUE(first.answer.evaluation.constraints_ok) << first.answer.summary;
+  // Pitched by 9 mrad (in the same bin), the stored plan violates a constraint (checked here, so
+  // that this test notices if the planner's closest approach stops being this close to them).
+  PlanRequest other = request(0.012, 0.605);
+  other.initial.pitch = 0.009;
+  const planner::JumpModel model(f.core->planner().robot(), f.core->planner().settings(),
+                                 other.task, other.initial);
+  const auto stored = f.core->findHit(other, f.core->keyOf(other));
+  ASSERT_TRUE(stored.has_value());
+  EXPECT_TRUE(stored->constraints_ok);
+  EXPECT_FALSE(stored->feasible);
+  planner::Evaluation there;
+  model.evaluate(Eigen::Map<const Eigen::VectorXd>(stored->u.data(), planner::kNumDecision), there);
+  ASSERT_TRUE(there.valid);
+  ASSERT_FALSE(there.constraints_ok);
+  const auto second = planSync(*f.core, other);
+  expectAnswer(second);
+  EXPECT_NE(second.answer.source, PlanSource::CacheHit);
+  EXPECT_DOUBLE_EQ(second.answer.plan.initial.vx, 0.012);
+  EXPECT_TRUE(second.answer.evaluation.constraints_ok) << second.answer.summary;
+  EXPECT_EQ(second.answer.stats.cache_key, first.answer.stats.cache_key);
+  auto s = f.core->stats();
+  EXPECT_EQ(s.cache_misses, 2u);
+  EXPECT_EQ(s.cache_hits, 0u);
+  EXPECT_EQ(s.cache_entries, 1u);
+  // A state where the entry's plan holds its constraints is a hit, as ever.
+  const auto third = planSync(*f.core, other);
+  EXPECT_EQ(third.answer.source, PlanSource::CacheHit);
+  EXPECT_TRUE(third.answer.evaluation.constraints_ok) << third.answer.summary;
+}
+
 TEST(PlanningCore, CancellationStopsTheSearch) {
   ServerConfig c = coreConfig();
   c.planner.settings_file = WJ_SERVER_TEST_DATA_DIR "/planner_long.yaml";

@@ -124,6 +124,7 @@ CachedSolution sampleSolution(double value, VerificationStatus status, double co
   s.t2 = 0.3;
   s.t3 = 0.9;
   s.feasible = true;
+  s.constraints_ok = true;
   s.de_complete = true;
   s.final_cost = cost;
   s.verification.status = status;

@@ -32,6 +32,9 @@ struct CachedSolution {
   std::array<double, planner::kNumDecision> u{};  ///< search vector of the returned candidate
   double t1 = 0.0, t2 = 0.0, t3 = 0.0;            ///< phase times [s]
   bool feasible = false;                          ///< at the state it was computed for
+  /// Every constraint margin >= 0 there: a feasible plan, or a closest approach to a target out
+  /// of reach (a hit that loses it at the caller's state is planned instead: PlanningCore).
+  bool constraints_ok = false;
   bool de_complete = false;  ///< the DE stopped on its own criterion (not time or cancel)
   /// The evaluation budget the search was given (budget.max_evaluations or the settings', capped):
   /// an infeasible answer is not the last word for a caller who allows more (findHit).
@@ -45,8 +48,9 @@ struct CachedSolution {
   std::int64_t created_unix_ms = 0;
 };
 
-/// The payload bytes (format version 2: version 1 and max_evaluations; version 1 payloads are
-/// still read, with max_evaluations = evaluations).
+/// The payload bytes (format version 3: version 2 and constraints_ok; version 2: version 1 and
+/// max_evaluations). Older payloads are still read, with constraints_ok = feasible and, for
+/// version 1, max_evaluations = evaluations.
 std::string encodeSolution(const CachedSolution& s);
 /// Parses a payload; nullopt if its version, length or any value is malformed (non-finite u).
 std::optional<CachedSolution> decodeSolution(std::string_view payload);
