@@ -92,8 +92,11 @@ if case in ("backflip", "backflip_42nm", "backflip_42nm_slip"):
     check(d["jumped"], f"no jump: {d['verdict']}")
     check(rc == 0 and d["success"], d["verdict"])
     sim = d["simulated"]
-    check(sim["touchdown_rotation_rad"] > 2 * 3.14159265 - 0.3,
-          f"{sim['touchdown_rotation_rad']:.3f} rad at touchdown, under 2 pi - 0.3")
+    # The turn at touchdown is the plan's within 0.15 rad (the 57 Nm flip came down 0.17-0.31 rad
+    # short before its legs stayed tucked to 80 % of the flight: docs/backflip.md, "Session 30").
+    turn_error = sim["touchdown_rotation_rad"] - d["plan"]["predicted_touchdown_rotation_rad"]
+    check(abs(turn_error) < 0.15,
+          f"{sim['touchdown_rotation_rad']:.3f} rad at touchdown, {turn_error:+.3f} from the plan's")
     check(abs(sim["final_rotation_rad"] - 6.283) < 0.3, d["verdict"])
     check(sim["body_touched_ground"] is False, "the body touched the ground")
     check(d["final_mode"] == "STAND", d["final_mode"])
