@@ -253,9 +253,10 @@ void PlanningCore::answerHit(const PlanRequest& request, const CacheKey& key,
     return;
   }
   if (lostAtThisState(solution, o.answer.evaluation)) {
-    spdlog::debug("cache hit {} no longer meets its constraints or target at the request's "
-                  "state ({}); planning",
-                  key.hex(), o.answer.summary);
+    spdlog::debug(
+        "cache hit {} no longer meets its constraints or target at the request's "
+        "state ({}); planning",
+        key.hex(), o.answer.summary);
     hits_.fetch_sub(1);  // counted as a hit on arrival; the computation counts its miss
     startComputation(request, key, call, BoundedExecutor::Lane::Internal);
     return;
