@@ -369,14 +369,18 @@ TEST(PlanningCore, InfeasibleAnswerOfATooSmallBudgetIsRecomputedForALargerOne) {
 // its bins can lose a constraint whose margin was nearly zero; the robot client refuses such a
 // plan and asks again. The service plans that caller's state instead, as it does for a feasible
 // hit that is no longer feasible there, and the better answer replaces the entry.
-TEST(PlanningCore, AClosestApproachThatLosesAConstraintAtTheCallersStateIsPlannedForIt) {
+// The shipped settings and their polish, which puts a closest approach on its constraints (the
+// test settings' short unpolished search leaves it inside them).
+ServerConfig shippedPlannerConfig() {
   ServerConfig c = coreConfig();
   c.verification.enabled = false;
-  // The shipped settings and their polish, which puts a closest approach on its constraints
-  // (the test settings' short unpolished search leaves it inside them).
   c.planner.settings_file = WJ_CONFIG_DIR "/planner_settings.yaml";
   c.planner.polish_min_budget_s = ServerConfig{}.planner.polish_min_budget_s;
-  Fixture f(c);
+  return c;
+}
+
+TEST(PlanningCore, AClosestApproachThatLosesAConstraintAtTheCallersStateIsPlannedForIt) {
+  Fixture f(shippedPlannerConfig());
   const PlanRequest first_state = request(0.0, 0.605);
   const auto first = planSync(*f.core, first_state);
   expectAnswer(first);
@@ -411,6 +415,30 @@ TEST(PlanningCore, AClosestApproachThatLosesAConstraintAtTheCallersStateIsPlanne
   const auto third = planSync(*f.core, other);
   EXPECT_EQ(third.answer.source, PlanSource::CacheHit);
   EXPECT_TRUE(third.answer.evaluation.constraints_ok) << third.answer.summary;
+}
+
+// The same rule when the entry is read back from SQLite (evicted from memory).
+TEST(PlanningCore, APersistedClosestApproachThatLosesAConstraintIsPlannedForTheCaller) {
+  test::TempDir dir("wj-core");
+  ServerConfig c = shippedPlannerConfig();
+  c.cache.max_memory_entries = 1;
+  Fixture f(c, nullptr, dir / "c.sqlite");
+  const auto first = planSync(*f.core, request(0.0, 0.605));
+  ASSERT_EQ(first.answer.source, PlanSource::CacheMiss);
+  ASSERT_FALSE(first.answer.evaluation.feasible);
+  ASSERT_TRUE(first.answer.evaluation.constraints_ok) << first.answer.summary;
+  expectAnswer(planSync(*f.core, request(1.0, 0.605)));  // evicts the first from memory
+  ASSERT_EQ(f.core->stats().evictions, 1u);
+  PlanRequest other = request(0.012, 0.605);
+  other.initial.pitch = 0.009;  // the previous test's state, where a constraint is lost
+  const auto second = planSync(*f.core, other);
+  expectAnswer(second);
+  EXPECT_NE(second.answer.source, PlanSource::CacheHit);
+  EXPECT_TRUE(second.answer.evaluation.constraints_ok) << second.answer.summary;
+  const auto s = f.core->stats();
+  EXPECT_EQ(s.cache.persisted_hits, 1);  // the row was read back, and not served
+  EXPECT_EQ(s.cache_hits, 0u);
+  EXPECT_EQ(s.cache_misses, 3u);
 }
 
 TEST(PlanningCore, CancellationStopsTheSearch) {
