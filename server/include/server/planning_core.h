@@ -176,7 +176,8 @@ class PlanningCore {
   /// Records the outcome's statistics and completes the call.
   void finish(const std::shared_ptr<PlanCall>& call, PlanOutcome&& outcome);
   /// Answers a hit on the calling thread: the plan rebuilt at the caller's state, or a
-  /// computation started when the stored solution is not valid or not feasible there.
+  /// computation started when the stored solution is not valid there or no longer meets there
+  /// its target or (a closest approach) its constraints.
   void answerHit(const PlanRequest& request, const CacheKey& key, const CachedSolution& solution,
                  const std::shared_ptr<PlanCall>& call);
   /// answerHit() on the hit pool (the warm-up's hits).
