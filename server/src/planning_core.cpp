@@ -453,22 +453,23 @@ void PlanningCore::finishComputation(const std::shared_ptr<Computation>& c,
       finish(caller.call, std::move(o));
       continue;
     }
-    if (!solution) {
-      // Nothing to share (e.g. no valid trajectory): answer each waiter the leader's way.
-      startComputation(caller.request, keyOf(caller.request), caller.call,
-                       BoundedExecutor::Lane::Internal);
+    std::optional<PlanOutcome> o;
+    if (solution) {
+      try {
+        o.emplace();
+        o->answer = answerFromSolution(*solution, caller.request, c->key, waiter_source);
+        if (lostAtThisState(*solution, o->answer.evaluation)) o.reset();  // as answerHit
+      } catch (const std::exception&) {
+        o.reset();  // no valid trajectory at this waiter's state
+      }
+    }
+    if (o) {
+      finish(caller.call, std::move(*o));
       continue;
     }
-    try {
-      PlanOutcome o;
-      o.answer = answerFromSolution(*solution, caller.request, c->key, waiter_source);
-      if (lostAtThisState(*solution, o.answer.evaluation))
-        throw std::runtime_error("not at this waiter's state");  // plan instead (answerHit)
-      finish(caller.call, std::move(o));
-    } catch (const std::exception&) {
-      startComputation(caller.request, keyOf(caller.request), caller.call,
-                       BoundedExecutor::Lane::Internal);
-    }
+    // Nothing to share, or not usable at this waiter's state: answered the leader's way.
+    startComputation(caller.request, keyOf(caller.request), caller.call,
+                     BoundedExecutor::Lane::Internal);
   }
 }
 
