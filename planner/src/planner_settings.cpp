@@ -347,6 +347,7 @@ PlannerSettings parse(const YAML::Node& root) {
               {"tyre_slip_stiffness_n_s_m", number(s.tyre_slip_stiffness_n_s_m)},
               {"tyre_contact_modulus_pa", number(s.tyre_contact_modulus_pa)},
               {"balanced_stance", [&](const YAML::Node& v) { s.balanced_stance = v.as<bool>(); }},
+              {"stance_momentum", [&](const YAML::Node& v) { s.stance_momentum = v.as<bool>(); }},
               {"actuator_model",
                choice(s.actuator_model, std::map<std::string, ActuatorModel>{
                                             {"envelope", ActuatorModel::Envelope},

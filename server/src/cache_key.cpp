@@ -218,8 +218,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below;
   // 12: takeoff_unload_s below; 13: the backflip's hind knee clearance and front brake share
   // below; 14: balanced_stance below; 15: the loaded tyre below; 16: the tyre's sink below; 17: the
-  // restarts while the budget lasts), which the probes below, run without the polish, do not see.
-  w.put(std::uint32_t{17});
+  // restarts while the budget lasts; 18: stance_momentum below), which the probes below, run
+  // without the polish, do not see.
+  w.put(std::uint32_t{18});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -267,6 +268,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // The balanced stance (the "up" probe's plan sees it too; hashed so that a cache never mixes
   // the two models' plans).
   w.putBool(s.balanced_stance);
+  // The take-off's pitch on the whole robot's momentum (the probes see it; hashed for the same
+  // reason).
+  w.putBool(s.stance_momentum);
   // The loaded tyre of the wheels' margins (the probes bind no wheel margin near the no-load
   // speed, where it matters).
   w.putDouble(s.tyre_rolling_radius_ratio);

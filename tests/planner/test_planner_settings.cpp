@@ -103,6 +103,15 @@ TEST(PlannerSettings, BalancedStanceIsReadAndCheckedAsABoolean) {
               test::HasSubstr("physics.balanced_stance"));
 }
 
+TEST(PlannerSettings, StanceMomentumIsReadAndCheckedAsABoolean) {
+  EXPECT_FALSE(PlannerSettings().stance_momentum);
+  EXPECT_TRUE(
+      PlannerSettings::fromYamlString("physics: {stance_momentum: true}\n").stance_momentum);
+  EXPECT_THAT(test::errorOf<std::runtime_error>(
+                  [] { (void)PlannerSettings::fromYamlString("physics: {stance_momentum: 2}\n"); }),
+              test::HasSubstr("physics.stance_momentum"));
+}
+
 TEST(PlannerSettings, RestartWhileBudgetIsReadAndCheckedAsABoolean) {
   EXPECT_TRUE(PlannerSettings().de_restart_while_budget);
   EXPECT_FALSE(PlannerSettings::fromYamlString("de: {restart_while_budget: false}\n")

@@ -85,9 +85,9 @@ struct PlannerSettings {
   /// envelope.
   ActuatorModel actuator_model = ActuatorModel::Envelope;
   /// Take-off pitch on the whole robot's angular momentum, the legs' and wheels' included
-  /// (docs/planner.md, "Stance momentum"); off: a rigid body. Off by default, and not yet a
-  /// settings-file key nor in the service's settings hash (server/src/cache_key.cpp): with it,
-  /// plans are consistent but not closer to Simbody until the lift-off is modelled.
+  /// (docs/planner.md, "Stance momentum"); off: a rigid body. Off by default: with it, plans
+  /// are consistent but not closer to Simbody on the forward and vertical presets. Settings
+  /// file: physics.stance_momentum (in the service's settings hash, server/src/cache_key.cpp).
   bool stance_momentum = false;
   /// The lift-off's unloading tail [s]: a simultaneous take-off's ground force at t2 is not
   /// zero (~150 N per wheel on vertical), and the wheels keep pushing after t2: the executor
