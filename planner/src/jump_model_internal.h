@@ -133,6 +133,9 @@ struct Solved {
   Poly D1, D2;
   bool stance_momentum = false;
   double e_t1 = 0.0;  // E at t1 from the first pass (two-step: the front's t1 sample)
+  // A two-step's front pair, braking to rest once lifted, hands its momentum relative to the
+  // body to the body at t1: E falls by this there (first pass; stance_momentum only).
+  double handover_t1 = 0.0;
   Eigen::Vector2d c_front_t1 = Eigen::Vector2d::Zero();  // ... and its CoM offset
   bool takeoff_posture = false;                          // takeoff_sample is final
   // `takeoff` is the flight's start: the push's state at t2 plus the unloading tail's

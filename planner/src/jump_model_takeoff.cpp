@@ -79,6 +79,17 @@ bool splitPhase1(Solved& S, const Poly& fFz1) {
   return true;
 }
 
+// The front pair's nose-up angular momentum relative to the body at its lift-off sample: what
+// its braking to rest hands to the body (the legs' motion and the shanks' turn of the wheels,
+// whose joint rate holds) [kg m^2/s].
+double frontPairHandover(const JumpModelConstants& M, const Sample& smp) {
+  const double moving = stanceMomentumExcess(M, smp);
+  const double at_rest =
+      stanceMomentumExcess(M, {smp.hind.q, smp.front.q}, {smp.hind.qd, Eigen::Vector2d::Zero()},
+                           {smp.hind.wheel_rate, smp.front.wheel_rate}, smp.s.pitch_rate);
+  return moving - at_rest;
+}
+
 // A two-step take-off's front pair at its lift-off (t1, phase 1's last sample): its axle, wheel
 // rate and reach, the braking that brings it to rest, and the stance momentum there. Needs
 // phase 1 solved (S.P1, S.W1 and the split); returns the sample.
@@ -94,19 +105,11 @@ Sample liftFrontPair(const JumpModelConstants& M, Solved& S) {
   S.front_brake = startBrake(M, 1, smp.front.q, smp.front.qd, frontLiftBrakeShare(M));
   S.front_pose_stop = poseOf(Eigen::Vector2d(S.front_brake[0].q_stop, S.front_brake[1].q_stop));
   S.c_front_t1 = smp.c;
-  if (!S.stance_momentum) S.e_t1 = stanceMomentumExcess(M, smp);
+  if (!S.stance_momentum) {
+    S.e_t1 = stanceMomentumExcess(M, smp);
+    if (M.settings.stance_momentum) S.handover_t1 = frontPairHandover(M, smp);
+  }
   return smp;
-}
-
-// The front pair's nose-up angular momentum relative to the body at its lift-off sample: what
-// its braking to rest hands to the body (the legs' motion and the shanks' turn of the wheels,
-// whose joint rate holds) [kg m^2/s].
-double frontPairHandover(const JumpModelConstants& M, const Sample& smp) {
-  const double moving = stanceMomentumExcess(M, smp);
-  const double at_rest =
-      stanceMomentumExcess(M, {smp.hind.q, smp.front.q}, {smp.hind.qd, Eigen::Vector2d::Zero()},
-                           {smp.hind.wheel_rate, smp.front.wheel_rate}, smp.s.pitch_rate);
-  return moving - at_rest;
 }
 
 // The lift-off's unloading tail (docs/planner.md, "The lift-off's unloading tail"): a
@@ -201,9 +204,16 @@ bool solvePitch(const JumpModelConstants& M, Solved& S) {
     // A backflip's lifted front pair brakes to rest relative to the body: with no ground force
     // on it, the whole robot's momentum about the CoM does not change, so the pair's momentum
     // relative to the body goes into the body's I theta' at t1 (docs/backflip.md, "Session
-    // 13"). The stance-momentum pass carries it in E instead.
+    // 13"). The stance-momentum pass has E fall by it at t1 (D2 starts there, from the first
+    // pass's sample), and the pitch rate takes this pass's at once: row 2 already holds the
+    // whole E at t2 (S.D2(T2)), so only the two samples' difference enters it.
     double handover = 0.0;
-    if (roll_from_rest && !S.stance_momentum) {
+    if (S.stance_momentum) {
+      handover = frontPairHandover(M, smp);
+      b[1] -= handover * T2;
+      b[2] -= handover - S.handover_t1;
+      k = lu.solve(b);
+    } else if (roll_from_rest) {
       handover = frontPairHandover(M, smp);
       b[1] -= handover * T2;
       b[2] -= handover;
@@ -285,6 +295,7 @@ bool solve(const JumpModelConstants& M, const Eigen::Ref<const Eigen::VectorXd>&
   S.VZ2 = derivative(S.Z2);
   S.D1 = {};
   S.D2 = {};
+  S.handover_t1 = 0.0;
   S.stance_momentum = false;
   S.takeoff_posture = false;
   if (!solvePitch(M, S)) return false;
@@ -373,7 +384,7 @@ bool solveStanceMomentum(const JumpModelConstants& M, Solved& S) {
   S.D1 = interpolate(t, y, 4);
   if (S.two_step) {
     t = {0.0, S.T2 / 2, S.T2, 0.0};
-    y[0] = y[3];
+    y[0] = y[3] - S.handover_t1;  // the front pair at rest from t1 on
     y[2] = excess(S.t2, true, c_t1, /*strict=*/true);
     y[1] = excess(S.t1 + t[1], true, 0.5 * (c_t1 + smp.c), false);
     S.D2 = interpolate(t, y, 3);
