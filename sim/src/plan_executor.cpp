@@ -286,7 +286,7 @@ void PlanExecutor::update(double t, const model::SensorData& sensors, bool any_w
         }
       }
       addHfeOffset((1.0 - s) * placement_td_, out);
-      addLandingPitchBrake(R_WB * sensors.imu.omega_B, out);
+      addLandingPitchBrake(R_WB * sensors.imu.omega_B, sensors, out);
       return;
     }
   }
@@ -403,6 +403,7 @@ double PlanExecutor::calcPlacementOffset(double t) const {
 }
 
 void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
+                                        const model::SensorData& sensors,
                                         model::JointCommands& out) const {
   const ExecutorSettings& e = settings_;
   if (e.landing_pitch_kp == 0.0 && e.landing_pitch_kd == 0.0) return;
@@ -419,8 +420,20 @@ void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
   const double dtau =
       -side * std::clamp(e.landing_pitch_kp * beyond + e.landing_pitch_kd * side * rate, 0.0,
                          e.landing_pitch_max_nm);
-  for (int leg = 0; leg < model::kNumLegs; ++leg)
-    out[model::jointIndex(static_cast<model::Leg>(leg), model::JointKind::Wheel)].tau_ff += dtau;
+  // The wheels' speed law must not undo it on the pair the body tips over (the front pair in a
+  // stoppie, the hind pair in a wheelie): a wheel spinning faster than its decelerating
+  // reference brakes, which tips a stoppie further (platform campaign, seed 23: the guard's
+  // 8 Nm against 10 Nm of the speed law's braking, and the robot went over its front wheels).
+  // There the reference is held on the guard's side of the wheel's own rate. The other pair is
+  // in the air or nearly: its speed law keeps it from spinning up to its no-load speed.
+  for (const model::Leg leg : model::kLegs) {
+    const int j = model::jointIndex(leg, model::JointKind::Wheel);
+    model::JointCommand& c = out[j];
+    c.tau_ff += dtau;
+    if (model::isFront(leg) != (side < 0.0)) continue;
+    const double qd = sensors.joints[j].qd;
+    c.qd_des = side < 0.0 ? std::max(c.qd_des, qd) : std::min(c.qd_des, qd);
+  }
 }
 
 void PlanExecutor::keepLiftedPairInRange(model::JointCommands& out) const {

@@ -252,6 +252,58 @@ TEST(LandingPlacement, WheelsDriveAgainstAStoppieBeyondTheLimitOnly) {
       test::HasSubstr("landing_nose_down_limit_rad"));
 }
 
+// The wheels' speed law (kd towards the landing's decelerating reference) never works against
+// either guard on the pair the body tips over: a wheel spinning faster than its reference
+// brakes, which tipped a front-heavy robot further over its front wheels than the stoppie
+// guard's 8 Nm could hold (platform campaign, seed 23). Beyond a limit that pair's reference is
+// held on the guard's side of the wheel's own rate; the other pair's, and within the limits
+// every wheel's, is the landing's.
+TEST(LandingPlacement, TheWheelsSpeedLawNeverWorksAgainstThePitchGuards) {
+  const model::RobotModel robot = loadRobot();
+  const planner::JumpPlan plan = makePlan();
+  ExecutorSettings s = wheelieBrake();
+  s.landing_nose_down_limit_rad = 0.15;
+  PlanExecutor ex(robot, plan, s, 9.81);
+  model::JointCommands c = flyTo(ex, 0.48, kPlanPitch);
+  ex.update(0.49, pitching(0.0, 0.0), true, c);  // touchdown level
+  ASSERT_EQ(ex.phase(), JumpPhase::Landing);
+  const int lf = jointIndex(Leg::LF, JointKind::Wheel);
+  const double reference = c[lf].qd_des;
+  ASSERT_GT(reference, 5.0);  // rolling forward
+  auto spinning = [&](double pitch, double rate, double wheel_rate) {
+    model::SensorData d = pitching(pitch, rate);
+    for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
+      d.joints[jointIndex(leg, JointKind::Wheel)].qd = wheel_rate;
+    return d;
+  };
+  // Within the limits the speed law brakes a wheel that spins too fast.
+  ex.update(0.5, spinning(-0.1, -1.0, reference + 5.0), true, c);
+  EXPECT_LT(c[lf].qd_des, reference + 5.0);
+  // A stoppie beyond the limit: the wheel's reference is at least its own rate (no braking).
+  ex.update(0.51, spinning(-0.3, -1.0, reference + 5.0), true, c);
+  for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH}) {
+    const model::JointCommand& w = c[jointIndex(leg, JointKind::Wheel)];
+    if (model::isFront(leg))
+      EXPECT_GE(w.qd_des, reference + 5.0);
+    else
+      EXPECT_LT(w.qd_des, reference + 5.0);  // the lifted hind pair keeps its speed law
+    EXPECT_GT(w.tau_ff, 0.0);
+  }
+  // ... and a wheel slower than its reference keeps the reference (the law drives as well).
+  ex.update(0.52, spinning(-0.3, -1.0, reference - 5.0), true, c);
+  EXPECT_GT(c[lf].qd_des, reference - 5.0);
+  // A wheelie beyond the limit: the reference at most the wheel's rate (no driving).
+  ex.update(0.53, spinning(0.6, 1.0, reference - 5.0), true, c);
+  for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH}) {
+    const model::JointCommand& w = c[jointIndex(leg, JointKind::Wheel)];
+    if (model::isFront(leg))
+      EXPECT_GT(w.qd_des, reference - 5.0);  // the lifted front pair keeps its speed law
+    else
+      EXPECT_LE(w.qd_des, reference - 5.0);
+    EXPECT_LT(w.tau_ff, 0.0);
+  }
+}
+
 // After a backflip the running (unwrapped) pitch is a turn more than the body's attitude: the
 // wheelie brake acts on the folded pitch, as after any other jump.
 TEST(LandingPlacement, TheWheelieBrakeSeesTheAttitudeAfterAFullTurn) {

@@ -150,7 +150,10 @@ struct ExecutorSettings {
   /// pitch: every wheel adds kp (-pitch - limit) - kd pitch_rate, clamped to
   /// [0, landing_pitch_max_nm], a forward torque that pitches the body nose-up. A braking
   /// landing otherwise tipped a front-heavy robot (a payload ahead) onto its front wheels and
-  /// over them (platform campaign, docs/robust.md, "The landing's stoppie"). kp = kd = 0: off.
+  /// over them (platform campaign, docs/robust.md, "The landing's stoppie"). Beyond either
+  /// limit the speed reference of the pair the body tips over (the front pair in a stoppie,
+  /// the hind pair in a wheelie) is held on the torque's side of the wheel's rate, so that its
+  /// speed law adds to the torque and never undoes it. kp = kd = 0: off.
   double landing_pitch_limit_rad = 0.4;
   double landing_nose_down_limit_rad = 0.15;  ///< see landing_pitch_limit_rad [rad]
   double landing_pitch_kp = 0.0;              ///< [Nm/rad]
@@ -230,8 +233,9 @@ class PlanExecutor {
   // The HFE offset of the leg placement for the measured pitch (touchdown_pitch_placement).
   double calcPlacementOffset(double t) const;
   // Adds the landing's wheel torque against a wheelie (braking) or a stoppie (driving) to
-  // every wheel's torque.
-  void addLandingPitchBrake(const Eigen::Vector3d& omega_W, model::JointCommands& out) const;
+  // every wheel's torque, and keeps the wheels' speed law from working against it.
+  void addLandingPitchBrake(const Eigen::Vector3d& omega_W, const model::SensorData& sensors,
+                            model::JointCommands& out) const;
   // Adds `offset` to every leg's HFE reference, inside the joint range.
   void addHfeOffset(double offset, model::JointCommands& out) const;
   // Adds the take-off's momentum feedback (takeoff_momentum_kp) to the legs' torques.
