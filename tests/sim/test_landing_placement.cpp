@@ -224,17 +224,33 @@ TEST(LandingPlacement, WheelsBrakeAgainstAWheelieBeyondTheLimitOnly) {
   EXPECT_DOUBLE_EQ(wheelTau(c, Leg::LH), 0.0);
 }
 
+// The wheelie brake's gains, against a stoppie too beyond 0.15 rad of nose-down pitch.
+ExecutorSettings stoppieGuard() {
+  ExecutorSettings s = wheelieBrake();
+  s.landing_nose_down_limit_rad = 0.15;
+  return s;
+}
+
+// An executor under `s` that has flown the test plan and touched down level (its landing).
+struct LevelLanding {
+  model::RobotModel robot = loadRobot();
+  planner::JumpPlan plan = makePlan();
+  PlanExecutor ex;
+  model::JointCommands c{};
+  explicit LevelLanding(const ExecutorSettings& s) : ex(robot, plan, s, 9.81) {
+    c = flyTo(ex, 0.48, kPlanPitch);
+    ex.update(0.49, pitching(0.0, 0.0), true, c);
+  }
+};
+
 // A front-heavy robot tipping over its front wheels in a braking landing: beyond 0.15 rad of
 // nose-down pitch every wheel drives (kp and kd as the wheelie's), never brakes.
 TEST(LandingPlacement, WheelsDriveAgainstAStoppieBeyondTheLimitOnly) {
-  const model::RobotModel robot = loadRobot();
-  const planner::JumpPlan plan = makePlan();
-  ExecutorSettings s = wheelieBrake();
-  s.landing_nose_down_limit_rad = 0.15;
-  PlanExecutor ex(robot, plan, s, 9.81);
-  model::JointCommands c = flyTo(ex, 0.48, kPlanPitch);
-  ex.update(0.49, pitching(0.0, 0.0), true, c);  // touchdown level
-  ASSERT_EQ(ex.phase(), JumpPhase::Landing);
+  ExecutorSettings s = stoppieGuard();
+  LevelLanding l(s);
+  ASSERT_EQ(l.ex.phase(), JumpPhase::Landing);
+  PlanExecutor& ex = l.ex;
+  model::JointCommands& c = l.c;
   ex.update(0.5, pitching(-0.14, -1.0), true, c);  // nose-down, falling, inside the limit
   for (const Leg leg : {Leg::LF, Leg::RF, Leg::LH, Leg::RH})
     EXPECT_DOUBLE_EQ(wheelTau(c, leg), 0.0);
@@ -248,7 +264,7 @@ TEST(LandingPlacement, WheelsDriveAgainstAStoppieBeyondTheLimitOnly) {
 
   s.landing_nose_down_limit_rad = -0.1;  // a limit below zero is refused by name
   EXPECT_THAT(
-      test::errorOf<std::invalid_argument>([&] { return PlanExecutor(robot, plan, s, 9.81); }),
+      test::errorOf<std::invalid_argument>([&] { return PlanExecutor(l.robot, l.plan, s, 9.81); }),
       test::HasSubstr("landing_nose_down_limit_rad"));
 }
 
@@ -259,14 +275,10 @@ TEST(LandingPlacement, WheelsDriveAgainstAStoppieBeyondTheLimitOnly) {
 // held on the guard's side of the wheel's own rate; the other pair's, and within the limits
 // every wheel's, is the landing's.
 TEST(LandingPlacement, TheWheelsSpeedLawNeverWorksAgainstThePitchGuards) {
-  const model::RobotModel robot = loadRobot();
-  const planner::JumpPlan plan = makePlan();
-  ExecutorSettings s = wheelieBrake();
-  s.landing_nose_down_limit_rad = 0.15;
-  PlanExecutor ex(robot, plan, s, 9.81);
-  model::JointCommands c = flyTo(ex, 0.48, kPlanPitch);
-  ex.update(0.49, pitching(0.0, 0.0), true, c);  // touchdown level
-  ASSERT_EQ(ex.phase(), JumpPhase::Landing);
+  LevelLanding l(stoppieGuard());
+  ASSERT_EQ(l.ex.phase(), JumpPhase::Landing);
+  PlanExecutor& ex = l.ex;
+  model::JointCommands& c = l.c;
   const int lf = jointIndex(Leg::LF, JointKind::Wheel);
   const double reference = c[lf].qd_des;
   ASSERT_GT(reference, 5.0);  // rolling forward
