@@ -430,7 +430,8 @@ void PlanExecutor::addLandingPitchBrake(const Eigen::Vector3d& omega_W,
     const int j = model::jointIndex(leg, model::JointKind::Wheel);
     model::JointCommand& c = out[j];
     c.tau_ff += dtau;
-    if (model::isFront(leg) != (side < 0.0)) continue;
+    const bool pivot = side < 0.0 ? model::isFront(leg) : !model::isFront(leg);
+    if (!pivot) continue;
     const double qd = sensors.joints[j].qd;
     c.qd_des = side < 0.0 ? std::max(c.qd_des, qd) : std::min(c.qd_des, qd);
   }
