@@ -21,12 +21,16 @@
 # (ExecutorSettings::takeoff_momentum_kp, _kd) in place of 150,0.5.
 # WJ_FIDELITY_TYRE_MODULUS=<Pa>: the planner's tyre sink (physics.tyre_contact_modulus_pa) in
 # place of the rigid wheel; Simbody's wheels are 2.828e6 (docs/takeoff-fidelity.md).
+# WJ_FIDELITY_CORRECTION=<rounds>: the plans with the lift-off correction (sim::
+# planWithLiftOffCorrection, at most that many plans after the first; docs/planner.md, "The
+# lift-off correction"); flight_momentum_3pct compares the flight's momentum with the wheels as
+# point masses (planner::JumpEvent::momentum), the plan's own against Simbody's.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}
 BIN=$BUILD/bin/sim_test_takeoff_fidelity
 [ -x "$BIN" ] || { echo "bench-takeoff-fidelity: $BIN not found" >&2; exit 2; }
-OUT=$(WJ_FIDELITY_BENCH=1 WJ_FIDELITY_SEEDS=${2:-3} WJ_FIDELITY_STANCE_MOMENTUM=${3:-0} WJ_FIDELITY_NO_TAIL=$([ "${4:-1}" = 0 ] && echo 1 || echo 0) "$BIN" --gtest_filter='*BenchGrid' | grep '^{')
+OUT=$(WJ_FIDELITY_CORRECTION=${WJ_FIDELITY_CORRECTION:-0} WJ_FIDELITY_BENCH=1 WJ_FIDELITY_SEEDS=${2:-3} WJ_FIDELITY_STANCE_MOMENTUM=${3:-0} WJ_FIDELITY_NO_TAIL=$([ "${4:-1}" = 0 ] && echo 1 || echo 0) "$BIN" --gtest_filter='*BenchGrid' | grep '^{')
 echo "$OUT"
 echo "$OUT" | /usr/bin/python3 -c '
 import json, math, sys
@@ -36,6 +40,7 @@ def ok(r):
     hp, hs = r["h_plan_flight"], r["h"][1]
     return {"velocity_1pct": math.hypot(vxs - vxp, vzs - vzp) <= 0.01 * math.hypot(vxp, vzp),
             "momentum_3pct": abs(hs - hp) <= 0.03 * abs(hp),
+            "flight_momentum_3pct": abs(r["h_flight"][1] - r["h_flight"][0]) <= 0.03 * abs(r["h_flight"][0]),
             "touchdown_pitch_0.03": abs(r["td_pitch"][1] - r["td_pitch"][0]) <= 0.03,
             "apex_1cm": abs(r["apex"][1] - r["apex"][0]) <= 0.01,
             "touchdown_dx_3cm": abs(r["td_dx"][1] - r["td_dx"][0]) <= 0.03}

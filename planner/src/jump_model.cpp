@@ -83,14 +83,17 @@ void setSearchBox(detail::JumpModelConstants& k) {
 }  // namespace
 
 JumpModel::JumpModel(const model::RobotModel& robot, const PlannerSettings& settings,
-                     const JumpTask& task, const InitialState& initial) {
+                     const JumpTask& task, const InitialState& initial,
+                     const LiftOffCorrection& correction) {
   k_.robot = robot;
   k_.settings = settings;
   k_.task = task;
   k_.init_input = initial;
+  k_.liftoff_correction = correction;
   k_.settings.validate();
   k_.task.validate();
   k_.init_input.validate(k_.robot);
+  k_.liftoff_correction.validate();
   using model::JointKind;
   using model::Leg;
   const auto& lg = k_.robot.legGeometry(Leg::LF);

@@ -359,6 +359,7 @@ void targetErrors(const JumpModelConstants& M, const Solved& S, Eigen::Vector4d&
   // The base at take-off from the take-off posture; in flight the legs are taken at the
   // landing posture they are moving to.
   out.takeoff = event(S.t2, to, S.takeoff_sample.c);
+  out.takeoff.momentum = S.flight_h;
   const double t_apex = std::max(to.vz / g, 0.0);
   std::array<Eigen::Vector2d, 2> q_apex;
   for (int pair = 0; pair < 2; ++pair)

@@ -30,6 +30,7 @@ void integrateFlightAttitude(const JumpModelConstants& M, Solved& S) {
   flightMomentum(M, {to.hind.q, to.front.q}, {to.hind.qd, to.front.qd}, i_to, h_to);
   // (about +y; the unloading tail's impulse is nose-up positive)
   const double h_y = -i_to * S.takeoff.pitch_rate + h_to - S.tail_h;
+  S.flight_h = -h_y;
   // The body's nose-up pitch rate at time t (about -y), and the legs' posture and CoM offset.
   // While the legs hold a posture (tucked, or landing) the inertia and CoM offset are those of
   // the last call with the same posture at rest, so they are kept instead of recomputed.

@@ -141,9 +141,10 @@ struct Solved {
   // `takeoff` is the flight's start: the push's state at t2 plus the unloading tail's
   // velocity change (addUnloadingTail); tail_h is the tail's nose-up angular impulse about the
   // CoM [kg m^2/s], which the flight's momentum adds: tail_weight [s] times the moment the
-  // motion at t2 needs (addUnloadingTailMoment, once the take-off posture is known).
+  // motion at t2 needs (addUnloadingTailMoment, once the take-off posture is known). Both add
+  // the lift-off correction. flight_h is the flight's nose-up momentum about the CoM.
   PlanarState mid, takeoff, touchdown;
-  double tail_weight = 0.0, tail_h = 0.0;
+  double tail_weight = 0.0, tail_h = 0.0, flight_h = 0.0;
   Eigen::Vector2d front_b_t1 = Eigen::Vector2d::Zero();  // front axle rel. HFE at t1 (body)
   double front_wheel_rate_t1 = 0.0;
   LegPose front_pose_t1;  // inversePose(front_b_t1), and its reach margin

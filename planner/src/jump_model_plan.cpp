@@ -308,6 +308,7 @@ JumpPlan JumpModel::buildPlan(const Eigen::Ref<const Eigen::VectorXd>& u,
                                                      (t - std::min((k - 1) * plan.dt, S.t3));
   }
   plan.predicted = predictedOutcome(u, evaluation);
+  plan.liftoff_correction = k_.liftoff_correction;
   return plan;
 }
 
@@ -452,6 +453,7 @@ JumpPlan JumpModel::buildKnots(const Eigen::Ref<const Eigen::VectorXd>& u,
     }
   }
   plan.predicted = predictedOutcome(u, evaluation);
+  plan.liftoff_correction = k_.liftoff_correction;
   return plan;
 }
 

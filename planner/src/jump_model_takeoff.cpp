@@ -124,9 +124,13 @@ Sample liftFrontPair(const JumpModelConstants& M, Solved& S) {
 // out the legs' 25-33 Nm there). The tail is taken as an impulse at t2: what moves the CoM
 // within it (~0.1 mm) and the contacts' travel are left out. A zero unloading time turns the
 // whole tail off (the flight from the push's state at t2).
+// The lift-off correction (docs/planner.md, "The lift-off correction") adds the velocity by
+// which the multibody simulation's lift-off differs from the model's, for either take-off.
 void addUnloadingTail(const JumpModelConstants& M, Solved& S) {
   S.tail_weight = 0.0;
   S.tail_h = 0.0;
+  S.takeoff.vx += M.liftoff_correction.vx;
+  S.takeoff.vz += M.liftoff_correction.vz;
   if (S.two_step || !(M.settings.takeoff_unload_s > 0.0)) return;
   const double t = S.t2;
   const double w = unloadingTailWeight(t, kExecutorControlPeriod, M.settings.takeoff_unload_s);
@@ -393,16 +397,16 @@ bool solveStanceMomentum(const JumpModelConstants& M, Solved& S) {
 }
 
 void addUnloadingTailMoment(const JumpModelConstants& M, Solved& S) {
-  S.tail_h = 0.0;
+  S.tail_h = M.liftoff_correction.momentum;
   if (!(S.tail_weight > 0.0)) return;
   if (!M.settings.balanced_stance) {
     // The model's split: the moment of Eq. S-0 at t2, which the take-off sample's forces make.
-    S.tail_h = S.tail_weight * groundMoment(S.takeoff_sample);
+    S.tail_h += S.tail_weight * groundMoment(S.takeoff_sample);
     return;
   }
   const StanceAccelerations acc =
       stanceAccelerations(M, S, TakeoffAccelerations(S), S.takeoff_sample);
-  S.tail_h = S.tail_weight * momentumRate(M, S.takeoff_sample, acc);
+  S.tail_h += S.tail_weight * momentumRate(M, S.takeoff_sample, acc);
 }
 
 PlanarState stateAt(const JumpModelConstants& M, const Solved& S, double t, double g) {

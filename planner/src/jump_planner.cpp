@@ -452,7 +452,7 @@ void PlanRun::pickCandidates() {
 PlannerResult JumpPlanner::plan(const JumpTask& task, const InitialState& initial,
                                 const PlanOptions& options) const {
   const auto t_start = Clock::now();
-  const JumpModel model(robot_, settings_, task, initial);
+  const JumpModel model(robot_, settings_, task, initial, options.liftoff_correction);
   if (options.num_candidates < 1)
     throw std::invalid_argument("options.num_candidates must be >= 1, got " +
                                 std::to_string(options.num_candidates));

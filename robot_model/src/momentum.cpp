@@ -7,8 +7,8 @@ namespace wj::model {
 
 Eigen::Vector3d calcCentralAngularMomentum(const RobotModel& robot, const Eigen::Matrix3d& R_WB,
                                            const Eigen::Vector3d& w_WB, const Eigen::VectorXd& q,
-                                           const Eigen::VectorXd& qd) {
-  return CentralMomentum(robot).calc(R_WB, w_WB, q, qd);
+                                           const Eigen::VectorXd& qd, WheelSpin wheels) {
+  return CentralMomentum(robot).calc(R_WB, w_WB, q, qd, wheels);
 }
 
 CentralMomentum::CentralMomentum(const RobotModel& robot)
@@ -19,10 +19,14 @@ CentralMomentum::CentralMomentum(const RobotModel& robot)
       p_(robot.links().size()),
       v_(robot.links().size()),
       w_(robot.links().size()),
-      q_step_(kNumJoints) {}
+      q_step_(kNumJoints),
+      is_wheel_(robot.links().size(), false) {
+  for (const Leg leg : kLegs) is_wheel_[robot.joint(leg, JointKind::Wheel).child_link] = true;
+}
 
 Eigen::Vector3d CentralMomentum::calc(const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& w_WB,
-                                      const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+                                      const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                      WheelSpin wheels) {
   constexpr double h = 1e-6;  // step of the central difference along qd [s]
   robot_.calcLinkPoses(q, X_);
   q_step_ = q + h * qd;
@@ -51,8 +55,9 @@ Eigen::Vector3d CentralMomentum::calc(const Eigen::Matrix3d& R_WB, const Eigen::
   for (std::size_t i = 0; i < n; ++i) {
     const Inertia& li = links[i].inertia;
     const Eigen::Matrix3d R_WL = R_WB * X_[i].linear();
-    H +=
-        li.mass * (p_[i] - c).cross(v_[i] - v_c) + R_WL * li.inertia_com * R_WL.transpose() * w_[i];
+    H += li.mass * (p_[i] - c).cross(v_[i] - v_c);
+    if (wheels == WheelSpin::Included || !is_wheel_[i])
+      H += R_WL * li.inertia_com * R_WL.transpose() * w_[i];
   }
   return H;
 }

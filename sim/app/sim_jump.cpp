@@ -20,6 +20,7 @@
 #include "planner/presets.h"
 #include "robot_model/momentum.h"
 #include "sim/executor_settings_file.h"
+#include "sim/liftoff_correction.h"
 #include "sim/statics.h"
 #include "sim/telemetry.h"
 #include "sim/verifier.h"
@@ -42,7 +43,8 @@ json eventJson(const pl::JumpEvent& e) {
           {"pitch", e.state.pitch},
           {"com_vx", e.state.vx},
           {"com_vz", e.state.vz},
-          {"base_z", e.base_z}};
+          {"base_z", e.base_z},
+          {"momentum", e.momentum}};
 }
 
 json outcomeJson(const pl::JumpOutcome& o) {
@@ -336,6 +338,11 @@ int main(int argc, char** argv) {
   app.add_option("--gif", pictures.gif, "write a side-view animation of the run here (GIF)");
   app.add_option("--html", pictures.html, "write a 3D replay page of the run here (HTML)");
   app.add_flag("--json", json_out, "print JSON");
+  int correction_rounds = 0;
+  app.add_option("--liftoff-correction", correction_rounds,
+                 "plan again up to this many times with the flight started from Simbody's "
+                 "lift-off (docs/planner.md, 'The lift-off correction'); 0: the model alone")
+      ->check(CLI::Range(0, 10));
   CLI11_PARSE(app, argc, argv);
   try {
     const auto robot = wj::model::RobotModel::loadDefault(actuators);
@@ -349,8 +356,6 @@ int main(int argc, char** argv) {
     pl::PlanOptions opts;
     opts.seed = seed;
     opts.threads = threads;
-    const pl::PlannerResult r = planner.plan(sc.task, sc.initial, opts);
-    if (!r.evaluation.valid) throw std::runtime_error("the planner found no valid trajectory");
 
     sm::VerifierSettings vs;
     if (!sim_config.empty()) vs.sim = sm::loadSimSettings(sim_config);
@@ -367,12 +372,24 @@ int main(int argc, char** argv) {
       with_terrain.terrain = scenario.terrain;
       scenario.terrain = sm::applyPlant(with_terrain, plant).terrain;
     }
-    sm::TelemetryRecorder recorder;
     // Simbody starts where the plan does, with the start state's joint velocities if given.
-    sm::InitialState initial = sm::initialStateFromPlan(robot, r.plan);
-    if (start) initial.qd = start->qd;
+    const auto initialFor = [&](const pl::JumpPlan& plan) {
+      sm::InitialState initial = sm::initialStateFromPlan(robot, plan);
+      if (start) initial.qd = start->qd;
+      return initial;
+    };
+    sm::LiftOffCorrectionSettings correction;
+    correction.max_rounds = correction_rounds;
+    const sm::CorrectedPlan corrected = sm::planWithLiftOffCorrection(
+        planner,
+        [&](const pl::JumpPlan& plan) { return verifier.verify(plan, initialFor(plan), scenario); },
+        sc.task, sc.initial, opts, correction);
+    const pl::PlannerResult& r = corrected.result;
+    if (!r.evaluation.valid) throw std::runtime_error("the planner found no valid trajectory");
+    // The chosen plan again, recorded (the same run: the verifier is deterministic).
+    sm::TelemetryRecorder recorder;
     const sm::VerificationReport v =
-        verifier.verify(r.plan, initial, scenario, recorder.callback());
+        verifier.verify(r.plan, initialFor(r.plan), scenario, recorder.callback());
     if (!plan_csv_path.empty()) writePlanCsv(plan_csv_path, r.plan);
     if (!momentum_csv_path.empty()) writeMomentumCsv(momentum_csv_path, robot, recorder, r.plan);
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";
@@ -431,6 +448,19 @@ int main(int argc, char** argv) {
           {"final_roll_rad", v.final_roll_rad},
           {"final_base_height_m", v.final_base_height_m},
           {"nominal_base_height_m", v.nominal_base_height_m}};
+      json rounds = json::array();
+      const auto triple = [](const pl::LiftOffCorrection& c) {
+        return json{{"vx", c.vx}, {"vz", c.vz}, {"momentum", c.momentum}};
+      };
+      for (const sm::CorrectionRound& round : corrected.rounds)
+        rounds.push_back({{"correction", triple(round.correction)},
+                          {"residual", triple(round.residual)},
+                          {"residual_ratio", round.residual_ratio},
+                          {"feasible", round.feasible},
+                          {"passed", round.passed},
+                          {"solve_ms", round.solve_ms},
+                          {"verify_ms", round.verify_ms}});
+      j["liftoff_correction"] = {{"rounds", rounds}, {"chosen", corrected.chosen}};
       const char* kinds[4] = {"haa", "hfe", "kfe", "wheel"};
       for (int k = 0; k < 4; ++k)
         j["simulated_max"][kinds[k]] = {{"torque_nm", sim_torque[k]},
@@ -442,8 +472,14 @@ int main(int argc, char** argv) {
       std::cout << pl::reportText(sc, r) << std::fixed << std::setprecision(3)
                 << "\n                         planned   simulated\n"
                 << "  take-off t [s]        " << std::setw(8) << p.takeoff.t << "   "
-                << std::setw(8) << s.takeoff.t << "\n  apex CoM z [m]        " << std::setw(8)
-                << p.apex.state.z << "   " << std::setw(8) << s.apex.state.z
+                << std::setw(8) << s.takeoff.t << "\n  lift-off vx [m/s]     " << std::setw(8)
+                << p.takeoff.state.vx << "   " << std::setw(8) << s.takeoff.state.vx
+                << "\n  lift-off vz [m/s]     " << std::setw(8)
+                << p.takeoff.state.vz - planner.settings().gravity * (s.takeoff.t - p.takeoff.t)
+                << "   " << std::setw(8) << s.takeoff.state.vz << "  (the plan's at Simbody's t)"
+                << "\n  lift-off H [kg m^2/s] " << std::setw(8) << p.takeoff.momentum << "   "
+                << std::setw(8) << s.takeoff.momentum << "\n  apex CoM z [m]        "
+                << std::setw(8) << p.apex.state.z << "   " << std::setw(8) << s.apex.state.z
                 << "\n  apex base z [m]       " << std::setw(8) << p.apex.base_z << "   "
                 << std::setw(8) << v.max_base_z_m << "\n  apex dx [m]           " << std::setw(8)
                 << p.apex.state.x << "   " << std::setw(8) << s.apex.state.x
@@ -465,6 +501,20 @@ int main(int argc, char** argv) {
                 << v.final_rotation_rad << " rad"
                 << "\n  verification: " << (v.passed ? "PASSED" : "FAILED") << "\n";
       for (const auto& reason : v.reasons) std::cout << "    - " << reason << "\n";
+      if (corrected.rounds.size() > 1 || correction_rounds > 0) {
+        std::cout << "  lift-off correction (vx, vz [m/s], H [kg m^2/s]; chosen: round "
+                  << corrected.chosen << "):\n";
+        for (std::size_t k = 0; k < corrected.rounds.size(); ++k) {
+          const sm::CorrectionRound& c = corrected.rounds[k];
+          std::cout << std::setprecision(4) << "    round " << k << ": correction ("
+                    << c.correction.vx << ", " << c.correction.vz << ", " << c.correction.momentum
+                    << "), Simbody - plan (" << c.residual.vx << ", " << c.residual.vz << ", "
+                    << c.residual.momentum << "), " << std::setprecision(2) << c.residual_ratio
+                    << " x tolerance, " << (c.feasible ? "feasible" : "infeasible") << ", "
+                    << (c.passed ? "verified" : "not verified") << "\n";
+          for (const std::string& why : c.reasons) std::cout << "      - " << why << "\n";
+        }
+      }
       if (!csv_path.empty()) std::cout << "  telemetry: " << csv_path << "\n";
       if (!plot_path.empty()) std::cout << "  figure: " << plot_path << "\n";
       for (const auto& [what, path] : {std::pair{"snapshot strip", pictures.strip},

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "contact_law.h"
+#include "robot_model/momentum.h"
 #include "sim/statics.h"
 #include "sim/symmetry.h"
 
@@ -58,6 +59,14 @@ planner::JumpEvent makeEvent(const GroundTruth& gt, double pitch) {
   e.state.pitch_rate = -gt.w_WB.y();
   e.base_z = gt.X_WB.translation().z();
   return e;
+}
+
+// The whole robot's angular momentum about its CoM, nose-up (about -y), the wheels as point
+// masses (planner::JumpEvent::momentum) [kg m^2/s].
+double noseUpMomentum(const model::RobotModel& robot, const Eigen::Matrix3d& R_WB,
+                      const Eigen::Vector3d& w_WB, const JointVector& q, const JointVector& qd) {
+  return -model::calcCentralAngularMomentum(robot, R_WB, w_WB, q, qd, model::WheelSpin::Excluded)
+              .y();
 }
 
 TelemetrySample makeSample(const GroundTruth& gt, JumpPhase phase) {
@@ -300,6 +309,12 @@ class VerificationRun {
   GroundTruth gt_;
   double pitch_ = 0.0;
   planner::JumpEvent last_contact_;
+  // The motion at last_contact_, whose angular momentum is computed once it is the take-off.
+  struct Motion {
+    Eigen::Matrix3d R_WB = Eigen::Matrix3d::Identity();
+    Eigen::Vector3d w_WB = Eigen::Vector3d::Zero();
+    JointVector q = JointVector::Zero(), qd = JointVector::Zero();
+  } last_contact_motion_;
   int limit_joint_ = -1;
   double limit_time_ = 0.0;
   int speed_joint_ = -1;
@@ -354,6 +369,8 @@ void VerificationRun::recordFlight(const GroundTruth& gt, bool contact,
                                    const PlanExecutor& executor) {
   if (executor.wasAirborne() && !r_.took_off) {
     r_.took_off = true;
+    const Motion& m = last_contact_motion_;
+    last_contact_.momentum = noseUpMomentum(model_, m.R_WB, m.w_WB, m.q, m.qd);
     r_.measured.takeoff = last_contact_;
     r_.measured.apex = last_contact_;
   }
@@ -368,6 +385,8 @@ void VerificationRun::recordFlight(const GroundTruth& gt, bool contact,
     if (contact) {
       r_.touched_down = true;
       r_.measured.touchdown = makeEvent(gt, pitch_);
+      r_.measured.touchdown.momentum =
+          noseUpMomentum(model_, gt.X_WB.linear(), gt.w_WB, gt.q, gt.qd);
     } else {
       if (gt.p_WC.z() > r_.measured.apex.state.z) r_.measured.apex = makeEvent(gt, pitch_);
       r_.max_base_z_m = std::max(r_.max_base_z_m, gt.X_WB.translation().z());
@@ -446,7 +465,10 @@ bool VerificationRun::simulate(SimRobot& robot, PlanExecutor& executor,
     bool contact = false;
     for (const auto& w : gt.wheels) contact = contact || w.in_contact;
 
-    if (!executor.wasAirborne() && contact) last_contact_ = makeEvent(gt, pitch_);
+    if (!executor.wasAirborne() && contact) {
+      last_contact_ = makeEvent(gt, pitch_);
+      last_contact_motion_ = {gt.X_WB.linear(), gt.w_WB, gt.q, gt.qd};
+    }
     executor.update(t, sensors, contact, commands);
     recordFlight(gt, contact, executor);
     recordDrives(gt, executor.phase());

@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <stdexcept>
+#include <string>
 
 #include "planner/jump_model.h"
 #include "planner/jump_planner.h"
@@ -352,6 +354,54 @@ TEST(JumpModel, BallisticApexAndConservedAngularMomentum) {
   }
   // The legs' motion does turn the body: the conservation is not a constant pitch rate.
   EXPECT_GT(pitch_rate_change, 0.05);
+}
+
+// The lift-off correction (docs/planner.md, "The lift-off correction") is an impulse at t2:
+// the push's rows stay the candidate's, the flight starts with the CoM velocity and the angular
+// momentum moved by exactly the correction, and flies on from there (ballistic apex, more
+// nose-up momentum turns more). The plan's flight momentum (JumpEvent::momentum, the wheels as
+// point masses) is the flight rows' own, through the URDF tree. Out-of-range corrections are
+// refused by name.
+TEST(JumpModel, LiftOffCorrectionIsAnImpulseAtLiftOff) {
+  PlannerSettings fine;
+  fine.samples_flight = 128;
+  const JumpPlanner planner = makePlanner(fine);
+  const Scenario sc = makePreset(planner, "vertical");
+  const LiftOffCorrection c{0.05, -0.08, 0.1};
+  const JumpModel m0(robot(), planner.settings(), sc.task, sc.initial);
+  const JumpModel m1(robot(), planner.settings(), sc.task, sc.initial, c);
+  const Eigen::VectorXd u = nominalU(m0);
+  const JumpPlan p0 = m0.buildPlan(u), p1 = m1.buildPlan(u);
+  EXPECT_TRUE(p0.liftoff_correction.isZero());
+  EXPECT_EQ(p1.liftoff_correction.vz, c.vz);
+  const int k2 = static_cast<int>(p0.t2 / p0.dt);
+  ASSERT_EQ(p1.t2, p0.t2);
+  for (int k = 0; k <= k2; ++k) {
+    EXPECT_EQ(p1.centroidal[k].vz, p0.centroidal[k].vz) << k;
+    EXPECT_EQ(p1.q.row(k), p0.q.row(k)) << k;
+  }
+  const JumpEvent &a = p0.predicted.takeoff, &b = p1.predicted.takeoff;
+  EXPECT_NEAR(b.state.vx - a.state.vx, c.vx, 1e-12);
+  EXPECT_NEAR(b.state.vz - a.state.vz, c.vz, 1e-12);
+  EXPECT_NEAR(b.momentum - a.momentum, c.momentum, 1e-12);
+  const double g = planner.settings().gravity;
+  EXPECT_NEAR(p1.predicted.apex.state.z, b.state.z + b.state.vz * b.state.vz / (2 * g), 1e-12);
+  EXPECT_GT(p1.predicted.touchdown.state.pitch - p0.predicted.touchdown.state.pitch, 0.02);
+  // The flight rows' momentum through the URDF tree (about +y; nose-up is about -y).
+  const int k0 = k2 + 3;
+  EXPECT_NEAR(-angularMomentumY(p0, k0), a.momentum, 0.015);
+  EXPECT_NEAR(-angularMomentumY(p1, k0), b.momentum, 0.015);
+  const auto refused = [&](LiftOffCorrection bad, const std::string& field) {
+    try {
+      JumpModel(robot(), planner.settings(), sc.task, sc.initial, bad);
+      ADD_FAILURE() << field << " accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  refused({0.0, 1.5, 0.0}, "liftoff_correction.vz");
+  refused({-1.01, 0.0, 0.0}, "liftoff_correction.vx");
+  refused({0.0, 0.0, std::nan("")}, "liftoff_correction.momentum");
 }
 
 // The legs' references at the lift-off (issue 22, the dead stop): the flight's, and for a

@@ -141,6 +141,40 @@ TEST(RobotModel, CentralAngularMomentumClosedForm) {
   EXPECT_GT(calcCentralAngularMomentum(m, R, Eigen::Vector3d::Zero(), q, knee).norm(), 0.05);
 }
 
+// Without the wheels' own rotation (WheelSpin::Excluded, the planner's flight convention): a
+// spinning wheel adds nothing, and the total less the excluded form is every wheel's own
+// inertia times its absolute angular velocity (the body's rate plus its spin).
+TEST(RobotModel, CentralAngularMomentumWithoutTheWheelsSpin) {
+  const RobotModel m = loadModel();
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(kNumJoints), qd = Eigen::VectorXd::Zero(kNumJoints);
+  for (const Leg leg : kLegs) {
+    q[jointIndex(leg, JointKind::HFE)] = 0.8;
+    q[jointIndex(leg, JointKind::KFE)] = -1.6;
+    qd[jointIndex(leg, JointKind::Wheel)] = 30.0;
+  }
+  // (No leg joint turns: a knee's rate would turn its wheel link as well.)
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const Eigen::Vector3d w(0.1, -6.0, 0.2);
+  Eigen::VectorXd spin_only = Eigen::VectorXd::Zero(kNumJoints);
+  for (const Leg leg : kLegs) spin_only[jointIndex(leg, JointKind::Wheel)] = 30.0;
+  EXPECT_LT(
+      calcCentralAngularMomentum(m, R, Eigen::Vector3d::Zero(), q, spin_only, WheelSpin::Excluded)
+          .norm(),
+      1e-9);
+  Eigen::Vector3d wheels_own = Eigen::Vector3d::Zero();
+  const auto X = m.calcLinkPoses(q);
+  for (const Leg leg : kLegs) {
+    const JointSpec& js = m.joint(leg, JointKind::Wheel);
+    const Eigen::Matrix3d R_WL = R * X[js.child_link].linear();
+    const Eigen::Vector3d w_L = w + R_WL * js.axis * qd[jointIndex(leg, JointKind::Wheel)];
+    wheels_own += R_WL * m.links()[js.child_link].inertia.inertia_com * R_WL.transpose() * w_L;
+  }
+  const Eigen::Vector3d all = calcCentralAngularMomentum(m, R, w, q, qd);
+  const Eigen::Vector3d rest = calcCentralAngularMomentum(m, R, w, q, qd, WheelSpin::Excluded);
+  EXPECT_TRUE((all - rest).isApprox(wheels_own, 1e-6));
+  EXPECT_GT(wheels_own.norm(), 0.5);  // 4 x 0.0054 kg m^2 x 30 rad/s: the term is not small
+}
+
 // The control loop's calculator (buffers sized once) is the same arithmetic as the function,
 // and the poses it keeps are calcLinkPoses' at its q; calcLinkPoses into a sized vector as well.
 TEST(RobotModel, CentralMomentumCalculatorIsTheFunction) {

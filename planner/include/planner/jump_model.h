@@ -104,8 +104,9 @@ struct JumpModelConstants {
   model::RobotModel robot;
   PlannerSettings settings;
   JumpTask task;
-  InitialState init_input;  ///< the initial state as given
-  PlanarState initial;      ///< the CoM state at t = 0 (x = 0)
+  InitialState init_input;               ///< the initial state as given
+  LiftOffCorrection liftoff_correction;  ///< added to the flight's start (addUnloadingTail)
+  PlanarState initial;                   ///< the CoM state at t = 0 (x = 0)
   PlanarLeg leg;
   PairGeometry hind, front;
   double mass = 0.0, inertia = 0.0, wheel_radius = 0.0;
@@ -156,9 +157,10 @@ struct JumpModelConstants {
 /// Immutable jump model for one (robot, settings, task, initial state).
 class JumpModel {
  public:
-  /// Validates the task and the initial state (std::invalid_argument naming the field).
+  /// Validates the task, the initial state and the correction (std::invalid_argument naming
+  /// the field). `correction`: what the flight adds to the take-off model's lift-off state.
   JumpModel(const model::RobotModel& robot, const PlannerSettings& settings, const JumpTask& task,
-            const InitialState& initial);
+            const InitialState& initial, const LiftOffCorrection& correction = {});
 
   int dimension() const { return kNumDecision; }
   /// Search box of u; fixed entries (lower == upper) for a simultaneous take-off.

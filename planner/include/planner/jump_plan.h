@@ -33,6 +33,27 @@ struct JumpEvent {
   double t = 0.0;  ///< from the start of take-off [s]
   PlanarState state;
   double base_z = 0.0;  ///< height of the base frame origin [m]
+  /// The whole robot's angular momentum about its CoM, nose-up, with the wheels as point masses
+  /// on their axles (a free wheel keeps its own spin in flight: model::WheelSpin) [kg m^2/s]:
+  /// the planner's is the flight's (take-off only; zero at the other events), the verifier's
+  /// Simbody's at the take-off and the touchdown.
+  double momentum = 0.0;
+};
+
+/// What the multibody simulation's lift-off differs by from the take-off model's, added to the
+/// model's flight as an impulse at t2: to the CoM velocity and to the whole robot's angular
+/// momentum about its CoM (docs/planner.md, "The lift-off correction"). Zero: the model alone.
+/// sim::planWithLiftOffCorrection measures it by verifying the plan in Simbody.
+struct LiftOffCorrection {
+  double vx = 0.0;        ///< [m/s]
+  double vz = 0.0;        ///< [m/s]
+  double momentum = 0.0;  ///< nose-up [kg m^2/s]
+  bool isZero() const { return vx == 0.0 && vz == 0.0 && momentum == 0.0; }
+  /// Throws std::invalid_argument naming the field unless each entry is finite and within its
+  /// bound: |vx|, |vz| <= kMaxVelocity, |momentum| <= kMaxMomentum.
+  void validate() const;
+  static constexpr double kMaxVelocity = 1.0;  ///< [m/s]
+  static constexpr double kMaxMomentum = 2.0;  ///< [kg m^2/s]
 };
 
 /// What a jump does: predicted by the planar model or measured in simulation.
@@ -114,6 +135,8 @@ struct JumpPlan {
   Eigen::VectorXd decision;
   /// What the planar model predicts.
   JumpOutcome predicted;
+  /// The lift-off correction the model's flight starts with (zero: the model alone).
+  LiftOffCorrection liftoff_correction;
 
   /// Number of dense samples.
   int numSamples() const { return static_cast<int>(centroidal.size()); }

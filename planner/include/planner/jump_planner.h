@@ -28,6 +28,8 @@ struct PlanOptions {
   Eigen::MatrixXd warm_start;
   /// How many distinct candidates to return for verification (best first), >= 1.
   int num_candidates = 1;
+  /// The lift-off correction of the model's flight (JumpModel's constructor); zero: none.
+  LiftOffCorrection liftoff_correction;
   const std::atomic<bool>* cancel = nullptr;  ///< polled between DE generations
 };
 

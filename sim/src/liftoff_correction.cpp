@@ -1,0 +1,119 @@
+#include "sim/liftoff_correction.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <tuple>
+
+namespace wj::sim {
+
+namespace {
+
+double msSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+void requireRange(const char* field, double value, double lo, double hi, bool open) {
+  const bool ok = std::isfinite(value) && (open ? value > lo : value >= lo) && value <= hi;
+  if (ok) return;
+  std::ostringstream ss;
+  ss << "liftoff_correction." << field << " must be in " << (open ? "(" : "[") << lo << ", " << hi
+     << "], got " << value;
+  throw std::invalid_argument(ss.str());
+}
+
+// Within LiftOffCorrection's bounds (validate() would throw otherwise).
+bool withinBounds(const planner::LiftOffCorrection& c) {
+  using C = planner::LiftOffCorrection;
+  return std::abs(c.vx) <= C::kMaxVelocity && std::abs(c.vz) <= C::kMaxVelocity &&
+         std::abs(c.momentum) <= C::kMaxMomentum;
+}
+
+// The round's residual against the tolerances (CorrectionRound::residual_ratio).
+double residualRatio(const planner::JumpPlan& plan, const planner::LiftOffCorrection& r,
+                     const LiftOffCorrectionSettings& settings) {
+  const planner::PlanarState& s = plan.predicted.takeoff.state;
+  const double speed = std::max(std::hypot(s.vx, s.vz), 0.1);
+  return std::max(std::hypot(r.vx, r.vz) / (settings.velocity_tolerance * speed),
+                  std::abs(r.momentum) / settings.momentum_tolerance);
+}
+
+// (verified, feasible, -residual_ratio): larger is better.
+auto rank(const CorrectionRound& r) {
+  return std::make_tuple(r.passed, r.feasible, -r.residual_ratio);
+}
+
+}  // namespace
+
+void LiftOffCorrectionSettings::validate() const {
+  requireRange("max_rounds", max_rounds, 0, 10, false);
+  requireRange("velocity_tolerance", velocity_tolerance, 0.0, 1.0, true);
+  requireRange("momentum_tolerance", momentum_tolerance, 0.0, 1.0, true);
+}
+
+planner::LiftOffCorrection measureLiftOffResidual(const planner::JumpPlan& plan,
+                                                  const VerificationReport& report,
+                                                  double gravity) {
+  const planner::JumpEvent& p = plan.predicted.takeoff;
+  const planner::JumpEvent& m = report.measured.takeoff;
+  planner::LiftOffCorrection r;
+  r.vx = m.state.vx - p.state.vx;
+  r.vz = m.state.vz - (p.state.vz - gravity * (m.t - p.t));
+  r.momentum = m.momentum - p.momentum;
+  return r;
+}
+
+CorrectedPlan planWithLiftOffCorrection(const planner::JumpPlanner& planner,
+                                        const VerifyPlan& verify, const planner::JumpTask& task,
+                                        const planner::InitialState& initial,
+                                        planner::PlanOptions options,
+                                        const LiftOffCorrectionSettings& settings) {
+  settings.validate();
+  CorrectedPlan out;
+  for (int round = 0; round <= settings.max_rounds; ++round) {
+    const auto t_solve = std::chrono::steady_clock::now();
+    planner::PlannerResult result = planner.plan(task, initial, options);
+    CorrectionRound r;
+    r.correction = options.liftoff_correction;
+    r.solve_ms = msSince(t_solve);
+    r.feasible = result.evaluation.feasible;
+    VerificationReport report;
+    if (result.evaluation.valid) {  // else there is no plan to verify
+      const auto t_verify = std::chrono::steady_clock::now();
+      report = verify(result.plan);
+      r.verify_ms = msSince(t_verify);
+      r.passed = report.passed;
+      r.reasons = report.reasons;
+    }
+    const bool measured = report.took_off;
+    if (measured) {
+      r.residual = measureLiftOffResidual(result.plan, report, planner.settings().gravity);
+      r.residual_ratio = residualRatio(result.plan, r.residual, settings);
+    } else {
+      r.residual_ratio = std::numeric_limits<double>::infinity();
+    }
+    out.rounds.push_back(r);
+    const bool better = out.rounds.size() == 1 || rank(r) > rank(out.rounds[out.chosen]);
+    if (better) {
+      out.chosen = static_cast<int>(out.rounds.size()) - 1;
+      out.result = std::move(result);
+      out.report = std::move(report);
+    }
+    if (!measured || (r.passed && r.feasible && r.residual_ratio <= 1.0)) break;
+    planner::LiftOffCorrection next = r.correction;
+    next.vx += r.residual.vx;
+    next.vz += r.residual.vz;
+    next.momentum += r.residual.momentum;
+    if (!withinBounds(next)) break;
+    options.liftoff_correction = next;
+    const Eigen::VectorXd& last = better ? out.result.u : result.u;
+    options.warm_start = last;
+  }
+  return out;
+}
+
+}  // namespace wj::sim
