@@ -55,9 +55,11 @@ Eigen::Vector3d CentralMomentum::calc(const Eigen::Matrix3d& R_WB, const Eigen::
   for (std::size_t i = 0; i < n; ++i) {
     const Inertia& li = links[i].inertia;
     const Eigen::Matrix3d R_WL = R_WB * X_[i].linear();
-    H += li.mass * (p_[i] - c).cross(v_[i] - v_c);
-    if (wheels == WheelSpin::Included || !is_wheel_[i])
-      H += R_WL * li.inertia_com * R_WL.transpose() * w_[i];
+    const Eigen::Vector3d orbit = li.mass * (p_[i] - c).cross(v_[i] - v_c);
+    if (wheels == WheelSpin::Excluded && is_wheel_[i])
+      H += orbit;
+    else
+      H += orbit + R_WL * li.inertia_com * R_WL.transpose() * w_[i];
   }
   return H;
 }
