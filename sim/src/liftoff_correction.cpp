@@ -74,6 +74,7 @@ CorrectedPlan planWithLiftOffCorrection(const planner::JumpPlanner& planner,
                                         const LiftOffCorrectionSettings& settings) {
   settings.validate();
   CorrectedPlan out;
+  Eigen::VectorXd last_u;
   for (int round = 0; round <= settings.max_rounds; ++round) {
     const auto t_solve = std::chrono::steady_clock::now();
     planner::PlannerResult result = planner.plan(task, initial, options);
@@ -98,20 +99,24 @@ CorrectedPlan planWithLiftOffCorrection(const planner::JumpPlanner& planner,
     }
     out.rounds.push_back(r);
     const bool better = out.rounds.size() == 1 || rank(r) > rank(out.rounds[out.chosen]);
+    const Eigen::VectorXd this_u = result.u;
     if (better) {
       out.chosen = static_cast<int>(out.rounds.size()) - 1;
       out.result = std::move(result);
       out.report = std::move(report);
     }
-    if (!measured || (r.passed && r.feasible && r.residual_ratio <= 1.0)) break;
+    // A search that returns the last round's candidate again (an infeasible one may) repeats
+    // its stance, and so Simbody's lift-off: another round would too.
+    const bool repeated = last_u.size() == this_u.size() && last_u == this_u;
+    if (!measured || repeated || (r.passed && r.feasible && r.residual_ratio <= 1.0)) break;
     planner::LiftOffCorrection next = r.correction;
     next.vx += r.residual.vx;
     next.vz += r.residual.vz;
     next.momentum += r.residual.momentum;
     if (!withinBounds(next)) break;
     options.liftoff_correction = next;
-    const Eigen::VectorXd& last = better ? out.result.u : result.u;
-    options.warm_start = last;
+    options.warm_start = this_u;
+    last_u = this_u;
   }
   return out;
 }

@@ -70,7 +70,8 @@ using VerifyPlan = std::function<VerificationReport(const planner::JumpPlan&)>;
 /// Plans `task` from `initial` with `options` (its liftoff_correction is the first round's),
 /// verifies each plan with `verify`, and plans again with the
 /// correction plus the residual until a verified, feasible plan's lift-off is within the
-/// tolerances, after settings.max_rounds, or when no residual can be measured (Simbody's robot
+/// tolerances, after settings.max_rounds, when the search returns the last round's candidate
+/// again, or when no residual can be measured (Simbody's robot
 /// did not take off) or the next correction leaves planner::LiftOffCorrection's bounds. Each
 /// later round warm-starts the planner from the last plan (options.warm_start). Chosen: the
 /// best round by (verified, feasible, smaller residual_ratio), the first of equals. Throws what
