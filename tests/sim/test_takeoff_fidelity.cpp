@@ -747,7 +747,7 @@ TEST(TakeoffFidelity, GridAgreesWithTheSimulation) {
 // flight) within 3 % or the correction's own tolerance (0.01 kg m^2/s; forward_hw's flights
 // carry 0.02-0.1 kg m^2/s), the touchdown pitch within 0.03 rad, the apex within 1 cm and the
 // touchdown dx within 3 cm. Session 32: 43 of 45 verify (41 without the correction), the
-// momentum is within 3 % on 34 (5 without), the touchdown pitch within 0.03 on all.
+// momentum is within 3 % on 35 (5 without), the touchdown pitch within 0.03 on all verified.
 TEST(TakeoffFidelity, CorrectedGridMeetsTheTargets) {
   int verified = 0, momentum_within = 0;
   for (const auto& [task, v0] : kGridCases)
