@@ -82,10 +82,4 @@ void InitialState::validate(const model::RobotModel& robot) const {
   }
 }
 
-void LiftOffCorrection::validate() const {
-  requireRange("liftoff_correction.vx", vx, -kMaxVelocity, kMaxVelocity);
-  requireRange("liftoff_correction.vz", vz, -kMaxVelocity, kMaxVelocity);
-  requireRange("liftoff_correction.momentum", momentum, -kMaxMomentum, kMaxMomentum);
-}
-
 }  // namespace wj::planner

@@ -6,11 +6,13 @@
 #include <cmath>
 #include <tuple>
 
+#include "planner/liftoff_correction.h"
+
 namespace wj::server {
 
 namespace {
 
-constexpr std::uint8_t kFormatVersion = 3;
+constexpr std::uint8_t kFormatVersion = 4;
 
 class Writer {
  public:
@@ -113,6 +115,9 @@ std::string encodeSolution(const CachedSolution& s) {
   w.f32(v.verify_ms);
   w.u64(static_cast<std::uint64_t>(s.created_unix_ms));
   w.u64(static_cast<std::uint64_t>(s.max_evaluations));
+  for (const double c :
+       {s.liftoff_correction.vx, s.liftoff_correction.vz, s.liftoff_correction.momentum})
+    w.f64(c);
   return w.take();
 }
 
@@ -159,6 +164,12 @@ std::optional<CachedSolution> decodeSolution(std::string_view payload) {
   s.created_unix_ms = static_cast<std::int64_t>(r.u64());
   s.max_evaluations =
       version == 1 ? s.evaluations : static_cast<std::int64_t>(r.u64());  // 1: what it used
+  if (version >= 4) {
+    s.liftoff_correction.vx = r.f64();
+    s.liftoff_correction.vz = r.f64();
+    s.liftoff_correction.momentum = r.f64();
+    if (!planner::withinBounds(s.liftoff_correction)) return std::nullopt;  // NaN included
+  }
   if (!r.ok() || !r.atEnd()) return std::nullopt;
   for (const double x : s.u)
     if (!std::isfinite(x)) return std::nullopt;

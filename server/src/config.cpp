@@ -216,6 +216,10 @@ void ServerConfig::validate() const {
   require(verification.max_touchdown_pitch_error_rad > 0,
           "verification.max_touchdown_pitch_error_rad", "> 0",
           verification.max_touchdown_pitch_error_rad);
+  require(
+      verification.liftoff_correction_rounds >= 0 && verification.liftoff_correction_rounds <= 10,
+      "verification.liftoff_correction_rounds", "in [0, 10]",
+      verification.liftoff_correction_rounds);
   require(cache.max_memory_entries >= 1 && cache.max_memory_entries <= 10'000'000,
           "cache.max_memory_entries", "in [1, 10^7]",
           static_cast<double>(cache.max_memory_entries));
@@ -351,6 +355,8 @@ ServerConfig ServerConfig::fromYamlString(const std::string& text, const std::st
     r.read("max_apex_height_error_m", v.max_apex_height_error_m);
     r.read("max_touchdown_dx_error_m", v.max_touchdown_dx_error_m);
     r.read("max_touchdown_pitch_error_rad", v.max_touchdown_pitch_error_rad);
+    if (r.has("liftoff_correction_rounds"))
+      r.read("liftoff_correction_rounds", v.liftoff_correction_rounds);
   });
   top.section("cache", [&](MapReader& r) {
     auto& k = c.cache;
@@ -477,7 +483,8 @@ std::string ServerConfig::toYaml() const {
     << "  max_apex_height_error_m: " << num(verification.max_apex_height_error_m) << "\n"
     << "  max_touchdown_dx_error_m: " << num(verification.max_touchdown_dx_error_m) << "\n"
     << "  max_touchdown_pitch_error_rad: " << num(verification.max_touchdown_pitch_error_rad)
-    << "\n";
+    << "\n"
+    << "  liftoff_correction_rounds: " << verification.liftoff_correction_rounds << "\n";
   o << "cache:\n"
     << "  backend: " << toString(cache.backend) << "\n"
     << "  path: " << quote(cache.path) << "\n"

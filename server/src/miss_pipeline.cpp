@@ -7,7 +7,10 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <tuple>
 #include <utility>
+
+#include "planner/liftoff_correction.h"
 
 namespace wj::server {
 
@@ -67,6 +70,8 @@ struct MissPipeline::Verified {
   VerificationSummary summary;
   StoredVerification stored;
   double verify_ms = 0.0;
+  /// Fills summary and stored from the chosen candidate's verdict, of `verified` simulated.
+  void record(const VerifierVerdict& v, int verified);
 };
 
 MissPipeline::MissPipeline(const ServerConfig& config, const planner::JumpPlanner& planner,
@@ -194,23 +199,95 @@ MissPipeline::Verified MissPipeline::verifyTopK(const MissInputs& in,
   int verified = 0;
   for (const auto& v : verdicts) verified += v ? 1 : 0;
   out.chosen = *pick;
-  const VerifierVerdict& v = *verdicts[out.chosen];
-  out.summary.status = v.passed ? VerificationStatus::Passed : VerificationStatus::Failed;
-  out.summary.failure_reasons = v.reasons;
-  out.summary.simulated = v.simulated;
-  out.summary.max_envelope_ratio = v.max_envelope_ratio;
-  out.summary.landed_upright = v.landed_upright;
-  out.summary.candidates_verified = verified;
-  out.summary.returned_candidate_rank = static_cast<int>(out.chosen);
-  out.stored.status = out.summary.status;
-  out.stored.failure_bits = v.failure_bits;
-  out.stored.simulated = v.simulated;
-  out.stored.max_envelope_ratio = v.max_envelope_ratio;
-  out.stored.landed_upright = v.landed_upright;
-  out.stored.candidates_verified = static_cast<std::uint16_t>(verified);
-  out.stored.returned_candidate_rank = static_cast<std::uint16_t>(out.chosen);
-  out.stored.verify_ms = static_cast<float>(out.verify_ms);
+  out.record(*verdicts[out.chosen], verified);
   return out;
+}
+
+void MissPipeline::Verified::record(const VerifierVerdict& v, int verified) {
+  summary.status = v.passed ? VerificationStatus::Passed : VerificationStatus::Failed;
+  summary.failure_reasons = v.reasons;
+  summary.simulated = v.simulated;
+  summary.max_envelope_ratio = v.max_envelope_ratio;
+  summary.landed_upright = v.landed_upright;
+  summary.candidates_verified = verified;
+  summary.returned_candidate_rank = static_cast<int>(chosen);
+  stored.status = summary.status;
+  stored.failure_bits = v.failure_bits;
+  stored.simulated = v.simulated;
+  stored.max_envelope_ratio = v.max_envelope_ratio;
+  stored.landed_upright = v.landed_upright;
+  stored.candidates_verified = static_cast<std::uint16_t>(verified);
+  stored.returned_candidate_rank = static_cast<std::uint16_t>(chosen);
+  stored.verify_ms = static_cast<float>(verify_ms);
+}
+
+void MissPipeline::correctLiftOff(const MissInputs& in, planner::PlannerResult& result,
+                                  Verified& v) const {
+  const int rounds = config_.verification.liftoff_correction_rounds;
+  // Simbody's robot took off (a verdict without a take-off has no lift-off to measure).
+  const auto tookOff = [](const planner::JumpOutcome& o) { return o.takeoff.t > 0.0; };
+  if (rounds <= 0 || in.request.task.isBackflip() || !tookOff(v.summary.simulated)) return;
+  const double g = planner_.settings().gravity;
+  const auto ratioOf = [](const planner::JumpPlan& plan, const planner::LiftOffCorrection& r) {
+    return planner::liftOffResidualRatio(plan, r, planner::kLiftOffVelocityTolerance,
+                                         planner::kLiftOffMomentumTolerance);
+  };
+  // (verified, feasible, -residual ratio): larger is better.
+  using Rank = std::tuple<bool, bool, double>;
+  planner::LiftOffCorrection correction = v.plan.liftoff_correction;
+  planner::LiftOffCorrection residual =
+      planner::liftOffResidual(v.plan, v.summary.simulated.takeoff, g);
+  Rank best{v.summary.status == VerificationStatus::Passed,
+            result.candidates[v.chosen].evaluation.feasible, -ratioOf(v.plan, residual)};
+  Eigen::VectorXd last_u = result.candidates[v.chosen].u;
+  // One round: a warm search and a verification, about as long as the first verification.
+  double round_ms = v.verify_ms;
+  int verified = v.summary.candidates_verified;
+  for (int round = 1; round <= rounds; ++round) {
+    if (std::get<0>(best) && std::get<1>(best) && -std::get<2>(best) <= 1.0) return;
+    const planner::LiftOffCorrection next = planner::nextCorrection(correction, residual);
+    const auto t_round = Clock::now();
+    const double left_ms = msBetween(t_round, in.budget_end);
+    if (!planner::withinBounds(next) || *in.cancel || left_ms < 2.0 * round_ms) return;
+    planner::PlanOptions options;
+    options.seed = in.seed;
+    options.threads = config_.planner.de_threads;
+    options.max_evaluations = maxEvaluations(in.request);
+    options.time_budget_s = 0.5 * (left_ms - round_ms) / 1e3;
+    options.polish = planner_.settings().polish;
+    options.warm_start = last_u;
+    options.liftoff_correction = next;
+    options.cancel = in.cancel;
+    planner::PlannerResult r;
+    try {
+      r = planner_.plan(in.request.task, in.request.initial, options);
+    } catch (const std::exception&) {
+      return;  // the correction is an improvement; the first round's answer stands
+    }
+    if (!r.evaluation.valid) return;
+    const std::optional<VerifierVerdict> verdict =
+        verifier_->verifyUnless(r.plan, in.request.task, *in.cancel);
+    round_ms = msBetween(t_round, Clock::now());
+    v.verify_ms += round_ms;
+    if (!verdict || !tookOff(verdict->simulated)) return;
+    ++verified;
+    correction = next;
+    residual = planner::liftOffResidual(r.plan, verdict->simulated.takeoff, g);
+    const Rank rank{verdict->passed, r.evaluation.feasible, -ratioOf(r.plan, residual)};
+    const bool repeated = r.u == last_u;
+    last_u = r.u;
+    if (rank > best) {
+      best = rank;
+      v.chosen = 0;
+      v.plan = r.plan;
+      result = std::move(r);
+      v.record(*verdict, verified);
+    } else {
+      v.summary.candidates_verified = verified;
+      v.stored.candidates_verified = static_cast<std::uint16_t>(verified);
+    }
+    if (repeated) return;
+  }
 }
 
 std::string MissPipeline::notRunReason(const PlanRequest& request) const {
@@ -252,6 +329,7 @@ CachedSolution MissPipeline::compactSolution(const planner::PlannerResult& resul
   solution.de_ms = static_cast<float>(result.de_ms);
   solution.polish_ms = static_cast<float>(result.polish_ms);
   solution.verification = verification;
+  solution.liftoff_correction = answer.plan.liftoff_correction;
   solution.created_unix_ms = unixMs();
   return solution;
 }
@@ -311,6 +389,8 @@ MissResult MissPipeline::run(const MissInputs& in) {
       out.error = std::move(v.error);
       return out;
     }
+    correctLiftOff(in, result, v);
+    answer.stats.verify_ms = v.verify_ms;
     chosen = v.chosen;
     answer.plan = std::move(v.plan);
     answer.verification = std::move(v.summary);
@@ -323,7 +403,7 @@ MissResult MissPipeline::run(const MissInputs& in) {
   if (asKnots(request.trajectory) && answer.plan.numSamples() > 0) {
     // The verifier ran the dense references; the answer carries the same plan as knots.
     const planner::JumpModel model(planner_.robot(), planner_.settings(), request.task,
-                                   request.initial);
+                                   request.initial, answer.plan.liftoff_correction);
     answer.plan = model.buildKnots(cand.u, &cand.evaluation);
   }
   answer.evaluation = cand.evaluation;

@@ -476,7 +476,7 @@ void PlanningCore::finishComputation(const std::shared_ptr<Computation>& c,
 PlanAnswer PlanningCore::answerFromSolution(const CachedSolution& s, const PlanRequest& request,
                                             const CacheKey& key, PlanSource source) const {
   const planner::JumpModel model(planner_.robot(), planner_.settings(), request.task,
-                                 request.initial);
+                                 request.initial, s.liftoff_correction);
   const Eigen::Map<const Eigen::VectorXd> u(s.u.data(), planner::kNumDecision);
   PlanAnswer a;
   model.evaluate(u, a.evaluation);

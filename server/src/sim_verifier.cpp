@@ -113,6 +113,10 @@ std::unique_ptr<PlanVerifier> makeSimVerifier(const model::RobotModel& robot,
     const auto bits = std::bit_cast<std::uint64_t>(x);
     h = fnv1a64(std::string_view(reinterpret_cast<const char*>(&bits), sizeof bits), h);
   }
+  // The lift-off correction decides which plan a miss stores (hashed only when on, so that the
+  // caches written without it stay valid).
+  if (config.liftoff_correction_rounds > 0)
+    h = fnv1a64("liftoff_correction_rounds " + std::to_string(config.liftoff_correction_rounds), h);
   return std::make_unique<SimPlanVerifier>(robot, std::move(settings), h);
 }
 

@@ -8,6 +8,8 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "planner/liftoff_correction.h"
+
 namespace wj::sim {
 
 namespace {
@@ -26,22 +28,6 @@ void requireRange(const char* field, double value, double lo, double hi, bool op
   throw std::invalid_argument(ss.str());
 }
 
-// Within LiftOffCorrection's bounds (validate() would throw otherwise).
-bool withinBounds(const planner::LiftOffCorrection& c) {
-  using C = planner::LiftOffCorrection;
-  return std::abs(c.vx) <= C::kMaxVelocity && std::abs(c.vz) <= C::kMaxVelocity &&
-         std::abs(c.momentum) <= C::kMaxMomentum;
-}
-
-// The round's residual against the tolerances (CorrectionRound::residual_ratio).
-double residualRatio(const planner::JumpPlan& plan, const planner::LiftOffCorrection& r,
-                     const LiftOffCorrectionSettings& settings) {
-  const planner::PlanarState& s = plan.predicted.takeoff.state;
-  const double speed = std::max(std::hypot(s.vx, s.vz), 0.1);
-  return std::max(std::hypot(r.vx, r.vz) / (settings.velocity_tolerance * speed),
-                  std::abs(r.momentum) / settings.momentum_tolerance);
-}
-
 // (verified, feasible, -residual_ratio): larger is better.
 auto rank(const CorrectionRound& r) {
   return std::make_tuple(r.passed, r.feasible, -r.residual_ratio);
@@ -58,13 +44,7 @@ void LiftOffCorrectionSettings::validate() const {
 planner::LiftOffCorrection measureLiftOffResidual(const planner::JumpPlan& plan,
                                                   const VerificationReport& report,
                                                   double gravity) {
-  const planner::JumpEvent& p = plan.predicted.takeoff;
-  const planner::JumpEvent& m = report.measured.takeoff;
-  planner::LiftOffCorrection r;
-  r.vx = m.state.vx - p.state.vx;
-  r.vz = m.state.vz - (p.state.vz - gravity * (m.t - p.t));
-  r.momentum = m.momentum - p.momentum;
-  return r;
+  return planner::liftOffResidual(plan, report.measured.takeoff, gravity);
 }
 
 CorrectedPlan planWithLiftOffCorrection(const planner::JumpPlanner& planner,
@@ -93,7 +73,8 @@ CorrectedPlan planWithLiftOffCorrection(const planner::JumpPlanner& planner,
     const bool measured = report.took_off;
     if (measured) {
       r.residual = measureLiftOffResidual(result.plan, report, planner.settings().gravity);
-      r.residual_ratio = residualRatio(result.plan, r.residual, settings);
+      r.residual_ratio = planner::liftOffResidualRatio(
+          result.plan, r.residual, settings.velocity_tolerance, settings.momentum_tolerance);
     } else {
       r.residual_ratio = std::numeric_limits<double>::infinity();
     }
@@ -109,11 +90,8 @@ CorrectedPlan planWithLiftOffCorrection(const planner::JumpPlanner& planner,
     // its stance, and so Simbody's lift-off: another round would too.
     const bool repeated = last_u.size() == this_u.size() && last_u == this_u;
     if (!measured || repeated || (r.passed && r.feasible && r.residual_ratio <= 1.0)) break;
-    planner::LiftOffCorrection next = r.correction;
-    next.vx += r.residual.vx;
-    next.vz += r.residual.vz;
-    next.momentum += r.residual.momentum;
-    if (!withinBounds(next)) break;
+    const planner::LiftOffCorrection next = planner::nextCorrection(r.correction, r.residual);
+    if (!planner::withinBounds(next)) break;
     options.liftoff_correction = next;
     options.warm_start = this_u;
     last_u = this_u;

@@ -169,12 +169,14 @@ TEST(CachedSolution, CodecRoundTripsAndRefusesDamage) {
   // read, with the evaluations the search used as its budget.
   EXPECT_EQ(back->max_evaluations, s.max_evaluations);
   constexpr std::size_t kFlags = 2 + 8 * planner::kNumDecision + 3 * 8;  // the flags byte
-  std::string v1 = payload.substr(0, payload.size() - 8);
+  constexpr std::size_t kCorrection = 3 * 8;  // format 4's lift-off correction, at the end
+  std::string v1 = payload.substr(0, payload.size() - kCorrection - 8);
   v1[0] = 1;
   v1[kFlags] = 1 | 2;  // feasible, de_complete: format 1 has no other flag
   ASSERT_TRUE(decodeSolution(v1).has_value());
   EXPECT_EQ(decodeSolution(v1)->max_evaluations, 1234567);
-  std::string v2_short = payload.substr(0, payload.size() - 8);
+  std::string v2_short = payload.substr(0, payload.size() - kCorrection - 8);
+  v2_short[0] = 2;
   EXPECT_FALSE(decodeSolution(v2_short).has_value());
   // Whether every constraint held (format 3) round-trips; a closest approach holds them without
   // being feasible. Older rows know it of their feasible solutions only, and a payload that
@@ -188,6 +190,7 @@ TEST(CachedSolution, CodecRoundTripsAndRefusesDamage) {
   closest.constraints_ok = false;
   EXPECT_FALSE(decodeSolution(encodeSolution(closest))->constraints_ok);
   std::string v2 = encodeSolution(closest);
+  v2.resize(v2.size() - kCorrection);
   v2[0] = 2;
   EXPECT_FALSE(decodeSolution(v2)->constraints_ok);
   v2[kFlags] = 1;  // feasible
@@ -200,6 +203,23 @@ TEST(CachedSolution, CodecRoundTripsAndRefusesDamage) {
   CachedSolution nan = s;
   nan.u[3] = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(decodeSolution(encodeSolution(nan)).has_value());
+  // The lift-off correction (format 4) round-trips; format 3 rows have none; one out of its
+  // bounds, or NaN, is refused.
+  CachedSolution corrected = s;
+  corrected.liftoff_correction = {0.004, -0.008, -0.041};
+  const auto c = decodeSolution(encodeSolution(corrected));
+  ASSERT_TRUE(c.has_value());
+  EXPECT_EQ(c->liftoff_correction.vz, -0.008);
+  EXPECT_EQ(c->liftoff_correction.momentum, -0.041);
+  std::string v3 = encodeSolution(corrected);
+  v3.resize(v3.size() - kCorrection);
+  v3[0] = 3;
+  ASSERT_TRUE(decodeSolution(v3).has_value());
+  EXPECT_TRUE(decodeSolution(v3)->liftoff_correction.isZero());
+  corrected.liftoff_correction.momentum = 2.5;
+  EXPECT_FALSE(decodeSolution(encodeSolution(corrected)).has_value());
+  corrected.liftoff_correction.momentum = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(decodeSolution(encodeSolution(corrected)).has_value());
   // The checksum covers key and payload.
   const std::string k = keyAt(1).bytes();
   EXPECT_NE(rowChecksum(k, payload), rowChecksum(keyAt(2).bytes(), payload));

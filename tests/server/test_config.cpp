@@ -147,6 +147,38 @@ TEST(ServerConfig, OutputSamplePeriodIsOptionalAndBounded) {
               wj::test::HasSubstr("planner.output_dt_s"));
 }
 
+// The lift-off correction's rounds: optional (configurations written before it mean 0, off),
+// bounded, and part of the verifier's settings hash only when on (a cache written without it
+// keeps its tag).
+TEST(ServerConfig, LiftOffCorrectionRoundsAreOptionalBoundedAndTagTheVerdicts) {
+  const std::string base = ServerConfig{}.toYaml();
+  EXPECT_EQ(ServerConfig{}.verification.liftoff_correction_rounds, 0);
+  EXPECT_EQ(
+      ServerConfig::fromYamlString(replaceLine(base, "  liftoff_correction_rounds:", ""), "<test>")
+          .verification.liftoff_correction_rounds,
+      0);
+  EXPECT_EQ(ServerConfig::fromYamlString(
+                replaceLine(base, "  liftoff_correction_rounds:", "  liftoff_correction_rounds: 2"),
+                "<test>")
+                .verification.liftoff_correction_rounds,
+            2);
+  for (const char* bad : {"-1", "11"}) {
+    const std::string error = errorOf(replaceLine(
+        base, "  liftoff_correction_rounds:", std::string("  liftoff_correction_rounds: ") + bad));
+    EXPECT_THAT(error, wj::test::HasSubstr("verification.liftoff_correction_rounds")) << bad;
+    EXPECT_THAT(error, wj::test::HasSubstr("[0, 10]")) << bad;
+  }
+  if (!simVerifierAvailable()) GTEST_SKIP() << "built without the sim component";
+  const model::RobotModel robot = model::RobotModel::loadDefault();
+  VerificationConfig v;
+  const std::uint64_t off = makeSimVerifier(robot, v)->settingsHash();
+  v.liftoff_correction_rounds = 2;
+  const std::uint64_t two = makeSimVerifier(robot, v)->settingsHash();
+  v.liftoff_correction_rounds = 3;
+  EXPECT_NE(two, off);
+  EXPECT_NE(makeSimVerifier(robot, v)->settingsHash(), two);
+}
+
 TEST(ServerConfig, UnknownKeyIsAnErrorNamingIt) {
   const std::string yaml =
       replaceLine(ServerConfig{}.toYaml(), "  v0_bin_m_s:", "  v0_bin_m_s: 0.05\n  v0_bins: 3");

@@ -43,7 +43,8 @@ struct JumpEvent {
 /// What the multibody simulation's lift-off differs by from the take-off model's, added to the
 /// model's flight as an impulse at t2: to the CoM velocity and to the whole robot's angular
 /// momentum about its CoM (docs/planner.md, "The lift-off correction"). Zero: the model alone.
-/// sim::planWithLiftOffCorrection measures it by verifying the plan in Simbody.
+/// sim::planWithLiftOffCorrection and the service measure it by verifying the plan in Simbody;
+/// planner/liftoff_correction.h has the arithmetic.
 struct LiftOffCorrection {
   double vx = 0.0;        ///< [m/s]
   double vz = 0.0;        ///< [m/s]

@@ -46,11 +46,15 @@ struct CachedSolution {
   float de_ms = 0.0f, polish_ms = 0.0f;
   StoredVerification verification;
   std::int64_t created_unix_ms = 0;
+  /// The lift-off correction the plan was made with (zero: none); a hit rebuilds the plan with
+  /// it (docs/planner.md, "The lift-off correction").
+  planner::LiftOffCorrection liftoff_correction;
 };
 
-/// The payload bytes (format version 3: version 2 and constraints_ok; version 2: version 1 and
-/// max_evaluations). Older payloads are still read, with constraints_ok = feasible and, for
-/// version 1, max_evaluations = evaluations.
+/// The payload bytes (format version 4: version 3 and the lift-off correction; version 3:
+/// version 2 and constraints_ok; version 2: version 1 and max_evaluations). Older payloads are
+/// still read, with no correction, constraints_ok = feasible and, for version 1,
+/// max_evaluations = evaluations.
 std::string encodeSolution(const CachedSolution& s);
 /// Parses a payload; nullopt if its version, length or any value is malformed (non-finite u).
 std::optional<CachedSolution> decodeSolution(std::string_view payload);

@@ -68,6 +68,11 @@ struct VerificationConfig {
   double max_apex_height_error_m = 0.05;        ///< acceptance: |simulated - predicted| apex
   double max_touchdown_dx_error_m = 0.15;       ///< acceptance: touchdown x error [m]
   double max_touchdown_pitch_error_rad = 0.35;  ///< acceptance: touchdown pitch error [rad]
+  /// The lift-off correction (docs/planner.md, "The lift-off correction"): a miss plans again,
+  /// up to this many times, from its chosen candidate with the flight started from the lift-off
+  /// the verification measured, while its time lasts; never for a backflip (its flight model is
+  /// not good enough yet). In [0, 10]; 0 = off. Optional key (absent: 0).
+  int liftoff_correction_rounds = 0;
 };
 
 /// The second level of the cache, behind the in-memory LRU.

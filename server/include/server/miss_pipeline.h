@@ -82,6 +82,13 @@ class MissPipeline {
   /// Simulates the top K of `result` on the verify pool; the chosen candidate's plan and
   /// verdict, or the error that replaces them.
   Verified verifyTopK(const MissInputs& in, const planner::PlannerResult& result) const;
+  /// The lift-off correction (ServerConfig::verification.liftoff_correction_rounds; docs/
+  /// planner.md, "The lift-off correction"): while rounds and time remain, plans again from the
+  /// chosen candidate with the flight started from the lift-off its verification measured,
+  /// verifies that plan on this thread, and keeps it (as `result`, rank 0) if it ranks better by
+  /// (verified, feasible, smaller residual). Stops once a verified, feasible plan is within the
+  /// tolerances. Never for a backflip.
+  void correctLiftOff(const MissInputs& in, planner::PlannerResult& result, Verified& v) const;
   /// The sentence that says why verification did not run.
   std::string notRunReason(const PlanRequest& request) const;
   /// The compact cache entry of the returned candidate.

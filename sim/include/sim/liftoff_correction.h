@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "planner/jump_planner.h"
+#include "planner/liftoff_correction.h"
 #include "sim/verifier.h"
 
 namespace wj::sim {
@@ -31,9 +32,9 @@ struct LiftOffCorrectionSettings {
   int max_rounds = 2;
   /// Done when Simbody's lift-off CoM velocity is within this fraction of the plan's lift-off
   /// speed ... (0, 1)
-  double velocity_tolerance = 0.005;
+  double velocity_tolerance = planner::kLiftOffVelocityTolerance;
   /// ... and its angular momentum about the CoM within this [kg m^2/s], (0, 1].
-  double momentum_tolerance = 0.01;
+  double momentum_tolerance = planner::kLiftOffMomentumTolerance;
   /// Throws std::invalid_argument naming the field and its range.
   void validate() const;
 };
