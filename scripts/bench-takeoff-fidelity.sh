@@ -25,6 +25,9 @@
 # planWithLiftOffCorrection, at most that many plans after the first; docs/planner.md, "The
 # lift-off correction"); flight_momentum_3pct compares the flight's momentum with the wheels as
 # point masses (planner::JumpEvent::momentum), the plan's own against Simbody's.
+# WJ_FIDELITY_FLIGHT_GAINS=kp,kd: the executor's flight leg gains in place of 300,6.
+# WJ_FIDELITY_SAMPLES_FLIGHT=<n>: the planner's flight attitude table (sampling.samples_flight)
+# with n samples in place of 24.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}

@@ -371,13 +371,15 @@ bool noTailFromEnv() {
 }
 
 /// PlannerSettings with the stance momentum on or off; WJ_FIDELITY_TYRE_MODULUS=<Pa>: with the
-/// tyre's sink (PlannerSettings::tyre_contact_modulus_pa) in place of the rigid wheel.
+/// tyre's sink (PlannerSettings::tyre_contact_modulus_pa) in place of the rigid wheel;
+/// WJ_FIDELITY_SAMPLES_FLIGHT=<n>: the flight attitude's table with n samples in place of 24.
 planner::PlannerSettings plannerSettings(bool stance_momentum) {
   planner::PlannerSettings s;
   s.stance_momentum = stance_momentum;
   if (noTailFromEnv()) s.takeoff_unload_s = 0.0;
   if (const char* e = std::getenv("WJ_FIDELITY_TYRE_MODULUS"))
     s.tyre_contact_modulus_pa = std::stod(e);
+  if (const char* e = std::getenv("WJ_FIDELITY_SAMPLES_FLIGHT")) s.samples_flight = std::stoi(e);
   return s;
 }
 
@@ -413,6 +415,8 @@ std::optional<std::pair<double, double>> gainPair(const char* name) {
 /// the gap is the joints' tracking, docs/takeoff-fidelity.md "Stiffer tracking").
 /// WJ_FIDELITY_MOMENTUM_GAINS="kp,kd": the take-off's momentum feedback gains in place of
 /// 150, 0.5 (docs/takeoff-fidelity.md, "The momentum feedback's gain").
+/// WJ_FIDELITY_FLIGHT_GAINS="kp,kd": the flight's leg gains in place of 300, 6 (how much of the
+/// touchdown pitch's error is the legs' lag, docs/takeoff-fidelity.md "Session 32").
 VerifierSettings verifierSettings() {
   const char* reference = std::getenv("WJ_FIDELITY_REFERENCE_INTEGRATOR");
   VerifierSettings s = reference && std::string(reference) == "1" ? VerifierSettings::reference()
@@ -430,6 +434,10 @@ VerifierSettings verifierSettings() {
   if (const auto g = gainPair("WJ_FIDELITY_TAKEOFF_GAINS")) {
     s.executor.takeoff_kp = g->first;
     s.executor.takeoff_kd = g->second;
+  }
+  if (const auto g = gainPair("WJ_FIDELITY_FLIGHT_GAINS")) {
+    s.executor.flight_kp = g->first;
+    s.executor.flight_kd = g->second;
   }
   if (const auto g = gainPair("WJ_FIDELITY_MOMENTUM_GAINS")) {
     s.executor.takeoff_momentum_kp = g->first;
