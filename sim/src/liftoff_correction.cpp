@@ -1,6 +1,5 @@
 #include "sim/liftoff_correction.h"
 
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
