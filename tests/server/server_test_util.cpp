@@ -7,6 +7,8 @@
 
 #include <cstdlib>
 #include <fstream>
+#include <future>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -37,6 +39,16 @@ ServerConfig testConfig(const std::filesystem::path& dir) {
   c.cache.path = (dir / "cache.sqlite").string();
   c.cache.synchronous_full = true;
   return c;
+}
+
+PlanOutcome ask(PlanningCore& core, PlanRequest request) {
+  std::promise<PlanOutcome> done;
+  auto future = done.get_future();
+  auto call =
+      std::make_shared<PlanCall>(Clock::now() + std::chrono::seconds(120),
+                                 [&done](PlanOutcome&& o) { done.set_value(std::move(o)); });
+  core.plan(std::move(request), call);
+  return future.get();
 }
 
 v1::PlanJumpRequest standingRequest(double v0, double height) {

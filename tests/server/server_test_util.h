@@ -10,6 +10,7 @@
 #include <string>
 
 #include "server/config.h"
+#include "server/planning_core.h"
 #include "wheeljump/planner/v1/jump_planner.pb.h"
 
 namespace wj::server::test {
@@ -33,6 +34,9 @@ class TempDir {
 /// The test configuration: 127.0.0.1:0, the fast planner settings (tests/server/data), a cache
 /// in `dir`, verification off (the tests that need it turn it on), short grace.
 ServerConfig testConfig(const std::filesystem::path& dir);
+
+/// `request` answered by `core` (a call with a 120 s deadline), waited for.
+PlanOutcome ask(PlanningCore& core, PlanRequest request);
 
 /// A PlanJump request of the robot standing level in the planner's take-off posture, rolling at
 /// `v0`, asked for a vertical jump to a CoM apex of `height` (simultaneous take-off).

@@ -51,16 +51,6 @@ std::string answerDigest(const PlanOutcome& o, const model::RobotModel& robot,
   return fnv1aHex(bytes);
 }
 
-PlanOutcome ask(PlanningCore& core, PlanRequest request) {
-  std::promise<PlanOutcome> done;
-  auto future = done.get_future();
-  auto call =
-      std::make_shared<PlanCall>(Clock::now() + std::chrono::seconds(120),
-                                 [&done](PlanOutcome&& o) { done.set_value(std::move(o)); });
-  core.plan(std::move(request), call);
-  return future.get();
-}
-
 TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
   if (!simVerifierAvailable()) GTEST_SKIP() << "built without the sim component";
   ServerConfig config = test::testConfig("/nonexistent");
@@ -79,7 +69,7 @@ TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
     r.initial = sc.initial;
     r.seed = 7;
     r.request_id = "digest";
-    const PlanOutcome miss = ask(core, r);
+    const PlanOutcome miss = test::ask(core, r);
     ASSERT_FALSE(miss.error.has_value()) << name << ": " << miss.error->what();
     EXPECT_EQ(miss.answer.source, PlanSource::CacheMiss) << name;
     EXPECT_GT(miss.answer.plan.numSamples(), 0) << name;
@@ -90,11 +80,11 @@ TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
               << miss.answer.verification.candidates_verified << " verified, rank "
               << miss.answer.verification.returned_candidate_rank << ")\n";
     now[name + "/miss"] = answerDigest(miss, core.robot(), r.trajectory);
-    const PlanOutcome hit = ask(core, r);
+    const PlanOutcome hit = test::ask(core, r);
     EXPECT_EQ(hit.answer.source, PlanSource::CacheHit) << name;
     now[name + "/hit"] = answerDigest(hit, core.robot(), r.trajectory);
     r.trajectory = TrajectoryFormat::Knots;
-    now[name + "/hit_knots"] = answerDigest(ask(core, r), core.robot(), r.trajectory);
+    now[name + "/hit_knots"] = answerDigest(test::ask(core, r), core.robot(), r.trajectory);
   }
   if (wj::test::updateRequested("WJ_UPDATE_ANSWER_DIGESTS")) {
     wj::test::writeGoldenDigests(

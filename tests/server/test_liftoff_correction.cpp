@@ -17,16 +17,6 @@
 namespace wj::server {
 namespace {
 
-PlanOutcome ask(PlanningCore& core, PlanRequest request) {
-  std::promise<PlanOutcome> done;
-  auto future = done.get_future();
-  auto call =
-      std::make_shared<PlanCall>(Clock::now() + std::chrono::seconds(120),
-                                 [&done](PlanOutcome&& o) { done.set_value(std::move(o)); });
-  core.plan(std::move(request), call);
-  return future.get();
-}
-
 ServerConfig configWithRounds(int rounds) {
   ServerConfig config = test::testConfig("/nonexistent");
   config.cache.path.clear();
@@ -56,7 +46,7 @@ TEST(LiftOffCorrectionService, AMissAnswersTheCorrectedPlanAndAHitRebuildsIt) {
   PlanningCore core(config, robot, planner::PlannerSettings{},
                     makeSimVerifier(robot, config.verification), nullptr);
   const PlanRequest request = presetRequest(core, "forward");
-  const PlanOutcome miss = ask(core, request);
+  const PlanOutcome miss = test::ask(core, request);
   ASSERT_FALSE(miss.error.has_value()) << miss.error->what();
   const PlanAnswer& a = miss.answer;
   EXPECT_EQ(a.source, PlanSource::CacheMiss);
@@ -69,7 +59,7 @@ TEST(LiftOffCorrectionService, AMissAnswersTheCorrectedPlanAndAHitRebuildsIt) {
             1.0);
   EXPECT_GE(a.verification.candidates_verified, 2);
 
-  const PlanOutcome hit = ask(core, request);
+  const PlanOutcome hit = test::ask(core, request);
   ASSERT_FALSE(hit.error.has_value());
   EXPECT_EQ(hit.answer.source, PlanSource::CacheHit);
   EXPECT_EQ(hit.answer.plan.liftoff_correction.momentum, a.plan.liftoff_correction.momentum);
@@ -89,7 +79,7 @@ TEST(LiftOffCorrectionService, NeitherABackflipNorAServiceWithoutRoundsIsCorrect
     for (const char* name : {"forward", "backflip"}) {
       if (rounds == 2 && std::string(name) == "forward") continue;  // the test above
       SCOPED_TRACE(std::string(name) + " rounds " + std::to_string(rounds));
-      const PlanOutcome miss = ask(core, presetRequest(core, name));
+      const PlanOutcome miss = test::ask(core, presetRequest(core, name));
       ASSERT_FALSE(miss.error.has_value()) << miss.error->what();
       EXPECT_TRUE(miss.answer.plan.liftoff_correction.isZero());
     }
