@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -380,16 +381,21 @@ int main(int argc, char** argv) {
     };
     sm::LiftOffCorrectionSettings correction;
     correction.max_rounds = correction_rounds;
+    // Each verification recorded: round k's is recordings[k] (the rounds verify in order, and
+    // the first round without a plan ends the iteration).
+    std::deque<sm::TelemetryRecorder> recordings;
     const sm::CorrectedPlan corrected = sm::planWithLiftOffCorrection(
         planner,
-        [&](const pl::JumpPlan& plan) { return verifier.verify(plan, initialFor(plan), scenario); },
+        [&](const pl::JumpPlan& plan) {
+          return verifier.verify(plan, initialFor(plan), scenario,
+                                 recordings.emplace_back().callback());
+        },
         sc.task, sc.initial, opts, correction);
     const pl::PlannerResult& r = corrected.result;
     if (!r.evaluation.valid) throw std::runtime_error("the planner found no valid trajectory");
-    // The chosen plan again, recorded (the same run: the verifier is deterministic).
-    sm::TelemetryRecorder recorder;
-    const sm::VerificationReport v =
-        verifier.verify(r.plan, initialFor(r.plan), scenario, recorder.callback());
+    const sm::TelemetryRecorder& recorder =
+        recordings.at(static_cast<std::size_t>(corrected.chosen));
+    const sm::VerificationReport& v = corrected.report;
     if (!plan_csv_path.empty()) writePlanCsv(plan_csv_path, r.plan);
     if (!momentum_csv_path.empty()) writeMomentumCsv(momentum_csv_path, robot, recorder, r.plan);
     if (csv_path.empty() && !plot_path.empty()) csv_path = plot_path + ".csv";

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <iomanip>
 #include <iostream>
 #include <limits>
@@ -472,17 +473,22 @@ Fidelity measure(const std::string& task, std::optional<double> v0, std::uint64_
   const Verifier verifier(robot, verifierSettings());
   LiftOffCorrectionSettings correction;
   correction.max_rounds = correction_rounds;
+  // Each verification recorded: round k's is recordings[k].
+  std::deque<TelemetryRecorder> recordings;
   const CorrectedPlan corrected = planWithLiftOffCorrection(
       planner,
       [&](const planner::JumpPlan& plan) {
-        return verifier.verify(plan, scenarioForTask(sc.task));
+        return verifier.verify(plan, scenarioForTask(sc.task),
+                               recordings.emplace_back().callback());
       },
       sc.task, sc.initial, opts, correction);
   const planner::PlannerResult& r = corrected.result;
   EXPECT_TRUE(r.evaluation.valid) << task;
-  TelemetryRecorder recorder;
-  const VerificationReport v =
-      verifier.verify(r.plan, scenarioForTask(sc.task), recorder.callback());
+  if (recordings.size() <= static_cast<std::size_t>(corrected.chosen))
+    recordings.resize(static_cast<std::size_t>(corrected.chosen) +
+                      1);  // no plan: nothing was recorded
+  const TelemetryRecorder& recorder = recordings[static_cast<std::size_t>(corrected.chosen)];
+  const VerificationReport& v = corrected.report;
   Fidelity f;
   f.task = task;
   f.v0 = sc.initial.v0;
