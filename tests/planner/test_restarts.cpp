@@ -3,6 +3,8 @@
 // "Restarts"), on the robot client's service settings (config/planner_settings.yaml).
 #include <gtest/gtest.h>
 
+#include <optional>
+
 #include "planner/jump_planner.h"
 #include "planner/presets.h"
 #include "test_robot.h"
@@ -12,37 +14,42 @@ namespace {
 
 using wj::test::robot;
 
-PlannerResult planPlatform(bool restart_while_budget, std::uint64_t seed) {
+PlannerResult planTask(const char* task, std::optional<double> v0, bool restart_while_budget,
+                       std::uint64_t seed) {
   PlannerSettings s = PlannerSettings::fromYaml(WJ_CONFIG_DIR "/planner_settings.yaml");
   s.de_restart_while_budget = restart_while_budget;
   const JumpPlanner planner(robot(), s);
-  const Scenario sc = makePreset(planner, "platform", 3.0);
+  const Scenario sc = makePreset(planner, task, v0);
   PlanOptions o;
   o.seed = seed;
   o.threads = 2;
   return planner.plan(sc.task, sc.initial, o);
 }
 
-// The platform at 3 m/s, seed 2: the four planned attempts all stagnate with the actuator
-// envelope violated, 3,264 of the 12,000 evaluations spent; the attempts after them find a plan.
+// The platform at 2.5 m/s, seed 10: the four planned attempts all stagnate with a constraint
+// violated, 4,096 of the 12,000 evaluations spent; the attempts after them find a plan within
+// every constraint (short of the target, which these settings rarely meet on the platform
+// since session 33's flight attitude: the robot client takes the closest approach there).
 TEST(Restarts, GoOnWhileTheBudgetLastsAndTheBestViolatesAConstraint) {
-  const PlannerResult planned = planPlatform(false, 2);
+  const PlannerResult planned = planTask("platform", 2.5, false, 10);
   ASSERT_FALSE(planned.evaluation.feasible);
   EXPECT_FALSE(planned.evaluation.constraints_ok) << planned.summary;
   EXPECT_EQ(planned.de_restarts, 3);
   EXPECT_LT(planned.de.evaluations, 6000);
 
-  const PlannerResult more = planPlatform(true, 2);
-  EXPECT_TRUE(more.evaluation.feasible) << more.summary;
+  const PlannerResult more = planTask("platform", 2.5, true, 10);
+  EXPECT_TRUE(more.evaluation.constraints_ok) << more.summary;
   EXPECT_GT(more.de_restarts, 3);
   EXPECT_LE(more.de.evaluations, 12000);
 }
 
-// A search that ends feasible within its planned attempts is the same search either way.
+// A search that ends feasible within its planned attempts is the same search either way: the
+// forward jump, seed 2, finds its plan in the second attempt.
 TEST(Restarts, LeaveASearchThatFindsAPlanAsItWas) {
-  const PlannerResult planned = planPlatform(false, 1);
-  const PlannerResult more = planPlatform(true, 1);
+  const PlannerResult planned = planTask("forward", std::nullopt, false, 2);
+  const PlannerResult more = planTask("forward", std::nullopt, true, 2);
   ASSERT_TRUE(planned.evaluation.feasible) << planned.summary;
+  EXPECT_EQ(planned.de_restarts, 1);
   EXPECT_EQ(planned.u, more.u);
   EXPECT_EQ(planned.de.evaluations, more.de.evaluations);
 }
