@@ -14,6 +14,8 @@
 #include <thread>
 #include <vector>
 
+#include "planner/presets.h"
+
 namespace wj::server::test {
 
 TempDir::TempDir(const std::string& prefix) {
@@ -39,6 +41,26 @@ ServerConfig testConfig(const std::filesystem::path& dir) {
   c.cache.path = (dir / "cache.sqlite").string();
   c.cache.synchronous_full = true;
   return c;
+}
+
+ServerConfig verifyingDefaultsConfig() {
+  ServerConfig config = testConfig("/nonexistent");
+  config.cache.path.clear();
+  config.planner.settings_file.clear();
+  config.verification.enabled = true;
+  config.deadlines.max_s = 120.0;
+  return config;
+}
+
+PlanRequest presetRequest(const PlanningCore& core, const std::string& name, std::uint64_t seed,
+                          const std::string& request_id) {
+  const planner::Scenario sc = planner::makePreset(core.planner(), name);
+  PlanRequest r;
+  r.task = sc.task;
+  r.initial = sc.initial;
+  r.seed = seed;
+  r.request_id = request_id;
+  return r;
 }
 
 PlanOutcome ask(PlanningCore& core, PlanRequest request) {

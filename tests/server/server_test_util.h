@@ -5,6 +5,7 @@
 #include <sys/types.h>
 
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -34,6 +35,15 @@ class TempDir {
 /// The test configuration: 127.0.0.1:0, the fast planner settings (tests/server/data), a cache
 /// in `dir`, verification off (the tests that need it turn it on), short grace.
 ServerConfig testConfig(const std::filesystem::path& dir);
+
+/// testConfig without a cache file, with the planner's default settings (as tests/planner's
+/// digests), the multibody verification on and calls up to 120 s: the configuration of the
+/// tests that verify presets' plans.
+ServerConfig verifyingDefaultsConfig();
+
+/// The preset `name`'s task and initial state as a request, with `seed` and `request_id`.
+PlanRequest presetRequest(const PlanningCore& core, const std::string& name, std::uint64_t seed,
+                          const std::string& request_id);
 
 /// `request` answered by `core` (a call with a 120 s deadline), waited for.
 PlanOutcome ask(PlanningCore& core, PlanRequest request);

@@ -53,22 +53,13 @@ std::string answerDigest(const PlanOutcome& o, const model::RobotModel& robot,
 
 TEST(AnswerDigest, EveryPresetsAnswerIsUnchanged) {
   if (!simVerifierAvailable()) GTEST_SKIP() << "built without the sim component";
-  ServerConfig config = test::testConfig("/nonexistent");
-  config.cache.path.clear();
-  config.planner.settings_file.clear();  // the planner's defaults, as tests/planner's digests
-  config.verification.enabled = true;
-  config.deadlines.max_s = 120.0;
+  const ServerConfig config = test::verifyingDefaultsConfig();
   const model::RobotModel robot = model::RobotModel::loadDefault();
   PlanningCore core(config, robot, planner::PlannerSettings{},
                     makeSimVerifier(robot, config.verification), nullptr);
   wj::test::Digests now;
   for (const std::string& name : planner::presetNames()) {
-    const planner::Scenario sc = planner::makePreset(core.planner(), name);
-    PlanRequest r;
-    r.task = sc.task;
-    r.initial = sc.initial;
-    r.seed = 7;
-    r.request_id = "digest";
+    PlanRequest r = test::presetRequest(core, name, 7, "digest");
     const PlanOutcome miss = test::ask(core, r);
     ASSERT_FALSE(miss.error.has_value()) << name << ": " << miss.error->what();
     EXPECT_EQ(miss.answer.source, PlanSource::CacheMiss) << name;

@@ -10,7 +10,6 @@
 #include <string>
 
 #include "planner/liftoff_correction.h"
-#include "planner/presets.h"
 #include "server/planning_core.h"
 #include "server_test_util.h"
 
@@ -18,23 +17,9 @@ namespace wj::server {
 namespace {
 
 ServerConfig configWithRounds(int rounds) {
-  ServerConfig config = test::testConfig("/nonexistent");
-  config.cache.path.clear();
-  config.planner.settings_file.clear();
-  config.verification.enabled = true;
+  ServerConfig config = test::verifyingDefaultsConfig();
   config.verification.liftoff_correction_rounds = rounds;
-  config.deadlines.max_s = 120.0;
   return config;
-}
-
-PlanRequest presetRequest(const PlanningCore& core, const std::string& name) {
-  const planner::Scenario sc = planner::makePreset(core.planner(), name);
-  PlanRequest r;
-  r.task = sc.task;
-  r.initial = sc.initial;
-  r.seed = 1;
-  r.request_id = "liftoff";
-  return r;
 }
 
 // Forward (seed 1): the model alone leaves Simbody's lift-off momentum 0.04 kg m^2/s below the
@@ -45,7 +30,7 @@ TEST(LiftOffCorrectionService, AMissAnswersTheCorrectedPlanAndAHitRebuildsIt) {
   const model::RobotModel robot = model::RobotModel::loadDefault();
   PlanningCore core(config, robot, planner::PlannerSettings{},
                     makeSimVerifier(robot, config.verification), nullptr);
-  const PlanRequest request = presetRequest(core, "forward");
+  const PlanRequest request = test::presetRequest(core, "forward", 1, "liftoff");
   const PlanOutcome miss = test::ask(core, request);
   ASSERT_FALSE(miss.error.has_value()) << miss.error->what();
   const PlanAnswer& a = miss.answer;
@@ -79,7 +64,7 @@ TEST(LiftOffCorrectionService, NeitherABackflipNorAServiceWithoutRoundsIsCorrect
     for (const char* name : {"forward", "backflip"}) {
       if (rounds == 2 && std::string(name) == "forward") continue;  // the test above
       SCOPED_TRACE(std::string(name) + " rounds " + std::to_string(rounds));
-      const PlanOutcome miss = test::ask(core, presetRequest(core, name));
+      const PlanOutcome miss = test::ask(core, test::presetRequest(core, name, 1, "liftoff"));
       ASSERT_FALSE(miss.error.has_value()) << miss.error->what();
       EXPECT_TRUE(miss.answer.plan.liftoff_correction.isZero());
     }
