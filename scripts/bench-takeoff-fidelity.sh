@@ -28,6 +28,8 @@
 # WJ_FIDELITY_FLIGHT_GAINS=kp,kd: the executor's flight leg gains in place of 300,6.
 # WJ_FIDELITY_SAMPLES_FLIGHT=<n>: the planner's flight attitude table (sampling.samples_flight)
 # with n samples in place of 24.
+# WJ_FIDELITY_FLIGHT_FEEDFORWARD=1: the flight's feed-forward and the drive-limited tuck
+# (physics.flight_feedforward, postures.drive_limited_tuck; docs/planner.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build/release}

@@ -335,18 +335,41 @@ PlanarState flightState(const JumpModelConstants& M, const Solved& S, double t) 
   return s;
 }
 
-// The tuck from rest: done by tuck_end, or slower if its peak speed (1.5 dq / T) would pass
-// kTuckSpeedShare of the no-load speed, but by extend_start at the latest.
+// kTuckTorqueShare of the peak torque over the fixed-base leg's inertia about the joint: the
+// hip's with the knee where it came to rest.
+double tuckAcceleration(const JumpModelConstants& M, const Solved& S, int pair, int j) {
+  const JumpModelConstants::LegInertia& li = M.leg_inertia[pair];
+  const double inertia =
+      j == 0 ? li.i_hip + 2.0 * li.m_l1_c * std::cos(S.brake[pair][1].q_stop) : li.i_knee;
+  return kTuckTorqueShare * (j == 0 ? M.env_hfe : M.env_kfe).peak_torque_nm / inertia;
+}
+
+// The tuck from rest, done by tuck_end at the earliest. The smoothstep tuck (the default) of the
+// hind pair is slower if its peak speed (1.5 dq / T) would pass kTuckSpeedShare of the no-load
+// speed; the front pair's is not limited (its wheels must clear an obstacle first). The
+// drive-limited tuck (postures.drive_limited_tuck) of either pair lasts at least as long as a
+// constant-acceleration profile at kTuckTorqueShare of the peak torque over the fixed-base
+// leg's inertia about the joint (at the knee angle where the knee came to rest), whose peak
+// speed (2 dq / T) stays within kTuckSpeedShare of the no-load speed. Either ends by
+// extend_start at the latest.
 double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int j) {
   const auto& st = M.settings;
   const JointBrake& b = S.brake[pair][j];
-  const double q_tuck = j == 0 ? st.tuck_hfe_rad : st.tuck_kfe_rad;
-  const double w_nl = (j == 0 ? M.env_hfe : M.env_kfe).no_load_speed_rad_s;
-  const double t_tuck = st.tuck_end_fraction * S.Tf, t_extend = M.extend_start * S.Tf;
-  if (pair == 1) return t_tuck - b.t_stop;  // the front wheels must clear an obstacle first
-  return std::min(
-      std::max(t_tuck - b.t_stop, 1.5 * std::abs(q_tuck - b.q_stop) / (kTuckSpeedShare * w_nl)),
-      t_extend - b.t_stop);
+  const double dq = std::abs((j == 0 ? st.tuck_hfe_rad : st.tuck_kfe_rad) - b.q_stop);
+  const model::ActuatorEnvelope& env = j == 0 ? M.env_hfe : M.env_kfe;
+  const double t_tuck = st.tuck_end_fraction * S.Tf - b.t_stop;
+  const double t_latest = M.extend_start * S.Tf - b.t_stop;
+  const double w_max = kTuckSpeedShare * env.no_load_speed_rad_s;
+  if (st.drive_limited_tuck) {
+    // (Capping the peak at the speed where the envelope still has the acceleration's torque,
+    // 24 of 40 rad/s, was measured and not kept: the forward jump kept 3 mm from its wall in
+    // Simbody; docs/planner.md, "The drive-limited tuck".)
+    const double t_min =
+        std::max(2.0 * std::sqrt(dq / tuckAcceleration(M, S, pair, j)), 2.0 * dq / w_max);
+    return std::min(std::max(t_tuck, t_min), t_latest);
+  }
+  if (pair == 1) return t_tuck;  // the front wheels must clear an obstacle first
+  return std::min(std::max(t_tuck, 1.5 * dq / w_max), t_latest);
 }
 
 // (HFE, KFE) of a pair in flight at time t: from the take-off posture and speeds the joints
@@ -368,8 +391,9 @@ Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int 
         q[j] = b.at(tau, &rate);
       } else if (T > 0.0 && tau < b.t_stop + T) {
         const double u = (tau - b.t_stop) / T;
-        q[j] = b.q_stop + dq * smoothstep(u);
-        rate = dq * smoothstepRate(u) / T;
+        const bool constant_acceleration = st.drive_limited_tuck;
+        q[j] = b.q_stop + dq * (constant_acceleration ? bangBang(u) : smoothstep(u));
+        rate = dq * (constant_acceleration ? bangBangRate(u) : smoothstepRate(u)) / T;
       } else {
         q[j] = q_tuck[j];  // tucked (or the brake outlasted the tuck: a very short flight)
       }

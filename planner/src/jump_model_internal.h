@@ -27,6 +27,10 @@ inline constexpr double kBrakeTorqueShare = 0.8;
 /// its tuck for 40 rad/s. (The front pair tucks by tuck_end regardless: its wheels are the
 /// first to pass an obstacle; slowed the same way they hit the platform's face.)
 inline constexpr double kTuckSpeedShare = 0.8;
+/// Share of a drive's peak torque a drive-limited tuck (postures.drive_limited_tuck)
+/// accelerates and decelerates its joint with, over the fixed-base leg's inertia about it (the
+/// rest is for the coupling to the other joint and the body, which that figure leaves out).
+inline constexpr double kTuckTorqueShare = 0.8;
 /// How far from its limit a braking joint must come to rest [rad].
 inline constexpr double kBrakeLimitClearance = 0.03;
 /// ... a backflip's hind hip (HFE) at the lift-off [rad]: the hind knees brake from 30-36 rad/s
@@ -251,6 +255,8 @@ Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int 
                               Eigen::Vector2d* qd);
 // How long joint j (0 HFE, 1 KFE) of a pair tucks after its braking ends [s].
 double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int j);
+/// The constant acceleration of a drive-limited tuck of joint j (0 HFE, 1 KFE) [rad/s^2].
+double tuckAcceleration(const JumpModelConstants& M, const Solved& S, int pair, int j);
 // The pair's braking from (q, qd) at its lift-off (the leg's inertia, the drives' envelopes).
 std::array<JointBrake, 2> startBrake(const JumpModelConstants& M, int pair,
                                      const Eigen::Vector2d& q, const Eigen::Vector2d& qd,

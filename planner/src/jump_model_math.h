@@ -106,6 +106,15 @@ inline double smoothstep(double xi) {
 inline double smoothstepRate(double xi) {
   return (xi <= 0.0 || xi >= 1.0) ? 0.0 : 6.0 * xi * (1.0 - xi);
 }
+// Constant acceleration to the midpoint, constant deceleration after it: 0 -> 1 over [0, 1],
+// at rest at both ends (the drive-limited tuck, postures.drive_limited_tuck).
+inline double bangBang(double xi) {
+  xi = std::clamp(xi, 0.0, 1.0);
+  return xi < 0.5 ? 2.0 * xi * xi : 1.0 - 2.0 * (1.0 - xi) * (1.0 - xi);
+}
+inline double bangBangRate(double xi) {
+  return (xi <= 0.0 || xi >= 1.0) ? 0.0 : (xi < 0.5 ? 4.0 * xi : 4.0 * (1.0 - xi));
+}
 
 // R_y(q) v = (c x + s z, -s x + c z) and its derivative (-s x + c z, -c x - s z).
 inline Eigen::Vector2d Rv(double sn, double cs, const Eigen::Vector2d& v) {

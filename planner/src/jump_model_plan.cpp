@@ -109,8 +109,12 @@ void planRow(const JumpModelConstants& M, const Solved& S, const StanceDynamics&
     out.qd[haa + 3] = wheel_rate[pair];
     out.tau[haa + 3] = wheel_tau[pair];
   }
-  // The legs' own dynamics in place of the statics (docs/planner.md, "Stance torques").
-  if (segment != Segment::Flight) addStanceTorques(M, D, smp, acc, out.tau);
+  // The legs' own dynamics in place of the statics (docs/planner.md, "Stance torques"), and
+  // in flight the torques that move them along the references.
+  if (segment != Segment::Flight)
+    addStanceTorques(M, D, smp, acc, out.tau);
+  else if (M.settings.flight_feedforward)
+    flightTorques(M, D, S, t, out.tau);
 }
 
 // D = [s(t1/2), s(t2), s(t3), t1, t2, t3] of a solved candidate.

@@ -252,32 +252,37 @@ LegPoint onLink(const LegPoint& origin, const Eigen::Vector3d& rho, double w, do
           origin.a + w_dot * y_x_rho - w * w * Eigen::Vector3d(rho.x(), 0.0, rho.z())};
 }
 
-}  // namespace
+// One leg's Newton-Euler balance in H, the frame of its HFE joint (Featherstone 2008, Sec.
+// 5.3): H's origin accelerates with the base, which turns at w_B = -pitch' e_y; a point at r
+// with velocity v and acceleration a relative to H has the acceleration a_H + w_B' x r +
+// w_B x (w_B x r) + 2 w_B x v + a (the transport theorem). The links' pitch accelerations about
+// the world's y axis are -pitch'' + e_y . (their turn in H)''.
+struct LegBalance {
+  const JumpModelConstants& M;
+  const StanceDynamics::Chain& c;
+  const Rot2& R;
+  double w, w_dot;                  // the base's nose-up pitch rate and acceleration
+  const Eigen::Vector2d& base_acc;  // the base origin's acceleration (world x-z)
+  const LegPose& pose;
+  const Eigen::Vector2d &qd, &qdd;  // (HFE, KFE)
 
-// Each leg in H, the frame of its HFE joint: H's origin accelerates with the base, which turns
-// at w_B = -pitch' e_y; a point at r with velocity v and acceleration a relative to H has the
-// acceleration a_H + w_B' x r + w_B x (w_B x r) + 2 w_B x v + a (the transport theorem). The
-// links' pitch accelerations about the world's y axis are -pitch'' + e_y . (their turn in H)''.
-void addStanceTorques(const JumpModelConstants& M, const StanceDynamics& D, const Sample& smp,
-                      const StanceAccelerations& acc,
-                      Eigen::Matrix<double, model::kNumJoints, 1>& tau) {
-  const Rot2& R = smp.R;
-  const double w = smp.s.pitch_rate, w_dot = acc.pitch;
-  const Eigen::Vector2d up_b = R.transposeTimes(Eigen::Vector2d(0.0, 1.0));  // world z in B
-  for (const model::Leg leg : model::kLegs) {
-    const int pair = model::isFront(leg) ? 1 : 0;
-    const PairSample& p = pair == 1 ? smp.front : smp.hind;
-    if (!p.contact) continue;
-    const StanceDynamics::Chain& c = D.leg[static_cast<std::size_t>(leg)];
-    // World x-z vectors in H's axes.
-    auto in_h = [&](const Eigen::Vector2d& v_world) {
-      const Eigen::Vector2d b = R.transposeTimes(v_world);
-      return Eigen::Vector3d(c.R_hfe.transpose() * Eigen::Vector3d(b.x(), 0.0, b.y()));
-    };
+  // World x-z vectors in H's axes.
+  Eigen::Vector3d inH(const Eigen::Vector2d& v_world) const {
+    const Eigen::Vector2d b = R.transposeTimes(v_world);
+    return Eigen::Vector3d(c.R_hfe.transpose() * Eigen::Vector3d(b.x(), 0.0, b.y()));
+  }
+
+  // Writes the leg's HAA, HFE, KFE and wheel torques into tau (from index `haa`). In contact
+  // (`ground`): the wheel's share f_c of its pair's force at the contact point, below the axle,
+  // and the wheel's spin acceleration `wheel_acc` (its absolute spin's part that is not the
+  // shank's). In flight (`ground` null) the wheel turns freely: its spin keeps its rate, so it
+  // adds no moment and needs no torque.
+  void torques(const PairSample* ground, double wheel_acc, int haa,
+               Eigen::Matrix<double, model::kNumJoints, 1>& tau) const {
     // H's origin: a point of the base (x-z), plus gravity's support.
     const Eigen::Vector2d d = R * Eigen::Vector2d(c.t_hfe.x(), c.t_hfe.z());
     const Eigen::Vector3d a_h =
-        in_h(acc.base + w_dot * perp(d) - w * w * d + Eigen::Vector2d(0.0, M.settings.gravity));
+        inH(base_acc + w_dot * perp(d) - w * w * d + Eigen::Vector2d(0.0, M.settings.gravity));
     // With w_B = -pitch' e_y and |e_y| = 1: w_B' x r + w_B x (w_B x r) + 2 w_B x v
     // = e_y x (-pitch'' r - 2 pitch' v) + pitch'^2 ((e_y . r) e_y - r).
     auto absolute = [&](const LegPoint& pt) -> Eigen::Vector3d {
@@ -285,13 +290,11 @@ void addStanceTorques(const JumpModelConstants& M, const StanceDynamics& D, cons
              w * w * (c.e_y.dot(pt.r) * c.e_y - pt.r) + pt.a;
     };
     // The thigh and shank angles in H and their rates.
-    const LegPose& pose = pair == 1 ? smp.pose_f : smp.pose_h;
-    const Eigen::Vector2d& qdd = acc.qdd[pair];
     const double s1 = c.sign[0] * pose.s1, c1 = pose.c1;
     const double sin2 = c.sign[1] * (pose.s12 * pose.c1 - pose.c12 * pose.s1);
     const double cos2 = pose.c12 * pose.c1 + pose.s12 * pose.s1;
     const double s12 = s1 * cos2 + c1 * sin2, c12 = c1 * cos2 - s1 * sin2;
-    const double w1 = c.sign[0] * p.qd[0], w12 = w1 + c.sign[1] * p.qd[1];
+    const double w1 = c.sign[0] * qd[0], w12 = w1 + c.sign[1] * qd[1];
     const double a1 = c.sign[0] * qdd[0], a12 = a1 + c.sign[1] * qdd[1];
     const LegPoint hfe{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
     const LegPoint knee = onLink(hfe, rotateY(s1, c1, c.t_kfe), w1, a1);
@@ -307,25 +310,105 @@ void addStanceTorques(const JumpModelConstants& M, const StanceDynamics& D, cons
     const double e_yy = c.e_y.y();
     const std::array<double, 4> pitch_dd{-w_dot, -w_dot + a1 * e_yy, -w_dot + a12 * e_yy,
                                          -w_dot + a12 * e_yy};
-    // The wheel's spin: rate = v_axle / r - (-pitch' + q1' + q2') (contactStatics).
-    const double wheel_acc = wheelAcceleration(M, acc, pair);
     // Up the chain: the links below each joint and the ground force at the contact point.
-    const Eigen::Vector3d f_c = in_h(p.f);
-    const Eigen::Vector3d p_c = axle.r - (M.wheel_radius - p.sink.x) * c.R_hfe.transpose() *
-                                             Eigen::Vector3d(up_b.x(), 0.0, up_b.y());
-    Eigen::Vector3d f_sum = -f_c, m_sum = -p_c.cross(f_c);
+    Eigen::Vector3d f_sum = Eigen::Vector3d::Zero(), m_sum = Eigen::Vector3d::Zero();
+    if (ground) {
+      const Eigen::Vector2d up_b = R.transposeTimes(Eigen::Vector2d(0.0, 1.0));  // world z in B
+      const Eigen::Vector3d f_c = inH(ground->f);
+      const Eigen::Vector3d p_c = axle.r - (M.wheel_radius - ground->sink.x) * c.R_hfe.transpose() *
+                                               Eigen::Vector3d(up_b.x(), 0.0, up_b.y());
+      f_sum = -f_c;
+      m_sum = -p_c.cross(f_c);
+    }
     for (int n = 3; n >= 0; --n) {
       const std::size_t i = static_cast<std::size_t>(n);
       const Eigen::Vector3d force = c.mass[i] * absolute(com[i]);
       f_sum += force;
-      m_sum += com[i].r.cross(force) + c.i_yy[i] * pitch_dd[i] * c.e_y;
-      if (n == 3) m_sum += c.i_yy[3] * wheel_acc * c.axis[3];
+      if (n < 3 || ground)
+        m_sum += com[i].r.cross(force) + c.i_yy[i] * pitch_dd[i] * c.e_y;
+      else
+        m_sum += com[i].r.cross(force);
+      if (n == 3 && ground) m_sum += c.i_yy[3] * wheel_acc * c.axis[3];
       // HFE, KFE and the wheel turn about H's y axis: only the moment's y is needed.
       const Eigen::Vector3d& o_n = o[i];
-      tau[model::jointIndex(leg, model::JointKind::HAA) + n] =
+      tau[haa + n] =
           n == 0 ? c.axis[0].dot(m_sum - o_n.cross(f_sum))
                  : c.sign[i - 1] * (m_sum.y() - (o_n.z() * f_sum.x() - o_n.x() * f_sum.z()));
     }
+  }
+};
+
+}  // namespace
+
+void addStanceTorques(const JumpModelConstants& M, const StanceDynamics& D, const Sample& smp,
+                      const StanceAccelerations& acc,
+                      Eigen::Matrix<double, model::kNumJoints, 1>& tau) {
+  for (const model::Leg leg : model::kLegs) {
+    const int pair = model::isFront(leg) ? 1 : 0;
+    const PairSample& p = pair == 1 ? smp.front : smp.hind;
+    if (!p.contact) continue;
+    const LegBalance balance{
+        M,        D.leg[static_cast<std::size_t>(leg)], smp.R, smp.s.pitch_rate, acc.pitch,
+        acc.base, pair == 1 ? smp.pose_f : smp.pose_h,  p.qd,  acc.qdd[pair]};
+    balance.torques(&p, wheelAcceleration(M, acc, pair),
+                    model::jointIndex(leg, model::JointKind::HAA), tau);
+  }
+}
+
+// The flight's feed-forward: the legs' joint torques along the flight references, with the
+// base's motion the plan's: the CoM's ballistic, the attitude the table's, and the pitch rate
+// the momentum balance's, (flight_h + h_legs) / I (the table's Hermite has steps in its second
+// derivative at its samples, a few Nm at the hips in a tuck). The rates' derivatives are
+// central differences over h of the references' own rates (the postures' analytic rates), the
+// base origin's acceleration a second difference of com - R c(q).
+void flightTorques(const JumpModelConstants& M, const StanceDynamics& D, const Solved& S, double t,
+                   Eigen::Matrix<double, model::kNumJoints, 1>& tau) {
+  constexpr double h = 1e-4;  // [s]
+  if (t > S.t3) {             // after the plan's touchdown: the landing's (the executor's own)
+    for (int j = 0; j < model::kNumJoints; ++j) tau[j] = 0.0;
+    return;
+  }
+  struct At {
+    PlanarState s;
+    std::array<Eigen::Vector2d, 2> q, qd;
+    Eigen::Vector2d base;
+  };
+  auto at = [&](double ti) {
+    At a;
+    a.s = flightState(M, S, ti);
+    for (int pair = 0; pair < 2; ++pair) a.q[pair] = flightPosture(M, S, pair, ti, &a.qd[pair]);
+    double i_total = 0.0, h_legs = 0.0;
+    Eigen::Vector2d c;
+    flightMomentum(M, a.q, a.qd, i_total, h_legs, &c);
+    a.s.pitch_rate = (S.flight_h + h_legs) / i_total;
+    a.base = Eigen::Vector2d(a.s.x, a.s.z) - Rot2(a.s.pitch) * c;
+    return a;
+  };
+  // Central differences over (t - h, t, t + h), or one-sided ones over (t, t + h, t + 2h) at
+  // the lift-off (the flight's first instant).
+  const bool central = t - h >= S.t2;
+  const At mid = at(t), a = central ? at(t - h) : mid, b = at(t + h),
+           c = central ? mid : at(t + 2.0 * h);
+  auto rate = [&](auto f) {
+    return central ? (f(b) - f(a)) / (2.0 * h) : (-3.0 * f(a) + 4.0 * f(b) - f(c)) / (2.0 * h);
+  };
+  const Eigen::Vector2d base_acc =
+      central ? Eigen::Vector2d((b.base - 2.0 * mid.base + a.base) / (h * h))
+              : Eigen::Vector2d((a.base - 2.0 * b.base + c.base) / (h * h));
+  const Rot2 R(mid.s.pitch);
+  const double w_dot = rate([](const At& x) { return x.s.pitch_rate; });
+  for (const model::Leg leg : model::kLegs) {
+    const int pair = model::isFront(leg) ? 1 : 0;
+    const Eigen::Vector2d qdd(rate([&](const At& x) { return x.qd[pair][0]; }),
+                              rate([&](const At& x) { return x.qd[pair][1]; }));
+    const LegPose pose = poseOf(mid.q[pair]);
+    const LegBalance balance{M,     D.leg[static_cast<std::size_t>(leg)],
+                             R,     mid.s.pitch_rate,
+                             w_dot, base_acc,
+                             pose,  mid.qd[pair],
+                             qdd};
+    balance.torques(nullptr, 0.0, model::jointIndex(leg, model::JointKind::HAA), tau);
+    tau[model::jointIndex(leg, model::JointKind::Wheel)] = 0.0;
   }
 }
 

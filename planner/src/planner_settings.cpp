@@ -347,6 +347,8 @@ PlannerSettings parse(const YAML::Node& root) {
               {"tyre_slip_stiffness_n_s_m", number(s.tyre_slip_stiffness_n_s_m)},
               {"tyre_contact_modulus_pa", number(s.tyre_contact_modulus_pa)},
               {"balanced_stance", [&](const YAML::Node& v) { s.balanced_stance = v.as<bool>(); }},
+              {"flight_feedforward",
+               [&](const YAML::Node& v) { s.flight_feedforward = v.as<bool>(); }},
               {"stance_momentum", [&](const YAML::Node& v) { s.stance_momentum = v.as<bool>(); }},
               {"actuator_model",
                choice(s.actuator_model, std::map<std::string, ActuatorModel>{
@@ -363,6 +365,8 @@ PlannerSettings parse(const YAML::Node& root) {
                       {"tuck_hfe_rad", number(s.tuck_hfe_rad)},
                       {"tuck_kfe_rad", number(s.tuck_kfe_rad)},
                       {"tuck_end_fraction", number(s.tuck_end_fraction)},
+                      {"drive_limited_tuck",
+                       [&](const YAML::Node& v) { s.drive_limited_tuck = v.as<bool>(); }},
                       {"extend_start_fraction", number(s.extend_start_fraction)},
                       {"extend_end_fraction", number(s.extend_end_fraction)},
                       {"wall_extend_start_fraction", number(s.wall_extend_start_fraction)}});

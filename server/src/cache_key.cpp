@@ -218,9 +218,9 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // (none is a flip) sees, and platform_margin_m below; 11: wall_extend_start_fraction below;
   // 12: takeoff_unload_s below; 13: the backflip's hind knee clearance and front brake share
   // below; 14: balanced_stance below; 15: the loaded tyre below; 16: the tyre's sink below; 17: the
-  // restarts while the budget lasts; 18: stance_momentum below), which the probes below, run
-  // without the polish, do not see.
-  w.put(std::uint32_t{18});
+  // restarts while the budget lasts; 18: stance_momentum below; 19: the flight's feed-forward and
+  // the drive-limited tuck below), which the probes below, run without the polish, do not see.
+  w.put(std::uint32_t{19});
   const auto& d = s.de;
   w.put(d.population_size);
   w.put(static_cast<int>(d.strategy));
@@ -271,6 +271,10 @@ std::uint64_t hashPlannerSettings(const planner::JumpPlanner& jp) {
   // The take-off's pitch on the whole robot's momentum (the probes see it; hashed for the same
   // reason).
   w.putBool(s.stance_momentum);
+  // The flight's feed-forward (a plan's rows only: no probe's evaluation sees it) and the tuck's
+  // profile (the probes' flights see it; hashed so that a cache never mixes the two).
+  w.putBool(s.flight_feedforward);
+  w.putBool(s.drive_limited_tuck);
   // The loaded tyre of the wheels' margins (the probes bind no wheel margin near the no-load
   // speed, where it matters).
   w.putDouble(s.tyre_rolling_radius_ratio);

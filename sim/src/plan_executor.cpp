@@ -98,6 +98,29 @@ std::string checkPlan(const planner::JumpPlan& plan) {
   return {};
 }
 
+namespace {
+
+// When the plan's legs are at rest after the lift-off's braking: the first sample after t2 at
+// which every leg joint that left the ground turning (0.5 rad/s or faster) has stopped or turned
+// back (the tuck). From the rates, not the torques: a plan with the flight's feed-forward
+// (physics.flight_feedforward) carries torques through the whole flight.
+double calcBrakeEnd(const planner::JumpPlan& plan, int k2) {
+  constexpr double kMoving = 0.5, kAtRest = 0.05;  // [rad/s]
+  double t = plan.t2;
+  for (int j = 0; j < model::kNumJoints; ++j) {
+    const double w0 = plan.qd(k2, j);
+    if (model::isWheel(j) || std::abs(w0) < kMoving) continue;
+    for (int k = k2 + 1; k < plan.numSamples(); ++k)
+      if (plan.qd(k, j) * w0 <= 0.0 || std::abs(plan.qd(k, j)) < kAtRest) {
+        t = std::max(t, k * plan.dt);
+        break;
+      }
+  }
+  return t;
+}
+
+}  // namespace
+
 PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPlan& plan,
                            const ExecutorSettings& settings, double gravity_m_s2)
     : model_(model),
@@ -119,16 +142,7 @@ PlanExecutor::PlanExecutor(const model::RobotModel& model, const planner::JumpPl
   wheel_speed_ = plan.centroidal[k2].vx / model.wheelRadius();
   const int k_mid = std::clamp(static_cast<int>(std::lround(0.5 * (plan.t1 + plan.t2) / plan.dt)),
                                0, plan.numSamples() - 1);
-  brake_end_t_ = plan.t2;
-  for (int k = plan.numSamples() - 1; k >= 0 && k * plan.dt > plan.t2; --k) {
-    bool braking = false;
-    for (int j = 0; j < model::kNumJoints; ++j)
-      braking = braking || (!model::isWheel(j) && plan.tau(k, j) != 0.0);
-    if (braking) {
-      brake_end_t_ = (k + 1) * plan.dt;
-      break;
-    }
-  }
+  brake_end_t_ = calcBrakeEnd(plan, k2);
   // The plan's apex: the first sample after take-off whose CoM no longer rises.
   int k_apex = k2;
   while (k_apex < plan.numSamples() - 1 && plan.centroidal[k_apex].vz > 0.0) ++k_apex;

@@ -103,6 +103,28 @@ TEST(PlannerSettings, BalancedStanceIsReadAndCheckedAsABoolean) {
               test::HasSubstr("physics.balanced_stance"));
 }
 
+TEST(PlannerSettings, FlightFeedForwardAndDriveLimitedTuckAreReadAndCheckedAsBooleans) {
+  EXPECT_FALSE(PlannerSettings().flight_feedforward);
+  EXPECT_FALSE(PlannerSettings().drive_limited_tuck);
+  const PlannerSettings s = PlannerSettings::fromYamlString(
+      "physics: {flight_feedforward: true}\npostures: {drive_limited_tuck: true}\n");
+  EXPECT_TRUE(s.flight_feedforward);
+  EXPECT_TRUE(s.drive_limited_tuck);
+  EXPECT_THAT(test::errorOf<std::runtime_error>([] {
+                (void)PlannerSettings::fromYamlString("physics: {flight_feedforward: 2}\n");
+              }),
+              test::HasSubstr("physics.flight_feedforward"));
+  EXPECT_THAT(test::errorOf<std::runtime_error>([] {
+                (void)PlannerSettings::fromYamlString("postures: {drive_limited_tuck: fast}\n");
+              }),
+              test::HasSubstr("postures.drive_limited_tuck"));
+  // Where they belong: a section refuses the other's key.
+  EXPECT_THAT(test::errorOf<std::runtime_error>([] {
+                (void)PlannerSettings::fromYamlString("physics: {drive_limited_tuck: true}\n");
+              }),
+              test::HasSubstr("drive_limited_tuck"));
+}
+
 TEST(PlannerSettings, StanceMomentumIsReadAndCheckedAsABoolean) {
   EXPECT_FALSE(PlannerSettings().stance_momentum);
   EXPECT_TRUE(

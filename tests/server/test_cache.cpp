@@ -121,6 +121,8 @@ TEST(SettingsHash, StableAndSensitiveToEveryKindOfSetting) {
   EXPECT_TRUE(changed([](auto& s) { s.takeoff_unload_s = 0.0; }));
   EXPECT_TRUE(changed([](auto& s) { s.balanced_stance = false; }));
   EXPECT_TRUE(changed([](auto& s) { s.stance_momentum = true; }));
+  EXPECT_TRUE(changed([](auto& s) { s.flight_feedforward = true; }));
+  EXPECT_TRUE(changed([](auto& s) { s.drive_limited_tuck = true; }));
   EXPECT_TRUE(changed([](auto& s) { s.tyre_contact_modulus_pa = 2.83e6; }));
   EXPECT_TRUE(changed([](auto& s) { s.stand_kfe_rad = -1.9; }));
   EXPECT_TRUE(changed([](auto& s) { s.landing_hfe_rad = 0.7; }));

@@ -375,7 +375,9 @@ bool noTailFromEnv() {
 
 /// PlannerSettings with the stance momentum on or off; WJ_FIDELITY_TYRE_MODULUS=<Pa>: with the
 /// tyre's sink (PlannerSettings::tyre_contact_modulus_pa) in place of the rigid wheel;
-/// WJ_FIDELITY_SAMPLES_FLIGHT=<n>: the flight attitude's table with n samples in place of 24.
+/// WJ_FIDELITY_SAMPLES_FLIGHT=<n>: the flight attitude's table with n samples in place of 24;
+/// WJ_FIDELITY_FLIGHT_FEEDFORWARD=1: the flight's feed-forward and the drive-limited tuck
+/// (physics.flight_feedforward, postures.drive_limited_tuck).
 planner::PlannerSettings plannerSettings(bool stance_momentum) {
   planner::PlannerSettings s;
   s.stance_momentum = stance_momentum;
@@ -383,6 +385,10 @@ planner::PlannerSettings plannerSettings(bool stance_momentum) {
   if (const char* e = std::getenv("WJ_FIDELITY_TYRE_MODULUS"))
     s.tyre_contact_modulus_pa = std::stod(e);
   if (const char* e = std::getenv("WJ_FIDELITY_SAMPLES_FLIGHT")) s.samples_flight = std::stoi(e);
+  if (const char* e = std::getenv("WJ_FIDELITY_FLIGHT_FEEDFORWARD"); e && std::string(e) == "1") {
+    s.flight_feedforward = true;
+    s.drive_limited_tuck = true;
+  }
   return s;
 }
 

@@ -127,6 +127,12 @@ struct PlannerSettings {
   /// balanced plans turn 0.03-0.06 rad more nose-up in Simbody). A two-step take-off keeps
   /// the model's split either way.
   bool balanced_stance = true;
+  /// The flight's feed-forward (`physics.flight_feedforward`; docs/planner.md, "The flight's
+  /// feed-forward"): the plan's flight rows carry the leg joints' torques that move the legs
+  /// along their references while the base flies as the plan's (a Newton-Euler balance of each
+  /// leg). false: the braking's torque until the joints are at rest, zero after (the joint PD
+  /// alone follows the tuck and the extension).
+  bool flight_feedforward = false;
 
   // --- postures (sagittal angles of every leg; HAA held at 0)
   double stand_hfe_rad = 1.0;  ///< take-off start posture used by the presets
@@ -138,7 +144,13 @@ struct PlannerSettings {
   /// 0.25 m wall's near edge 18 % into the flight (docs/robust.md).
   double tuck_hfe_rad = 1.4;
   double tuck_kfe_rad = -2.5;
-  double tuck_end_fraction = 0.25;      ///< fraction of the flight by which the legs are tucked
+  double tuck_end_fraction = 0.25;  ///< fraction of the flight by which the legs are tucked
+  /// The tuck's profile (docs/planner.md, "The drive-limited tuck"): false, a smoothstep done by
+  /// tuck_end_fraction (the hind pair's slowed to a peak speed within 0.8 of the drives' no-load
+  /// speed); true, each joint of both pairs at a constant acceleration within 0.8 of its drive's
+  /// peak torque (over the fixed-base leg's inertia) and then a constant deceleration, its peak
+  /// speed within 0.8 of the no-load speed, done by tuck_end_fraction if the drives allow it.
+  bool drive_limited_tuck = false;
   double extend_start_fraction = 0.55;  ///< ... at which they start extending to landing
   double extend_end_fraction = 0.9;     ///< ... by which they are in the landing posture
   /// extend_start_fraction of a jump over a wall (an obstacle it clears, not one it lands on):

@@ -270,9 +270,9 @@ class PlanExecutor {
   bool airborne_ = false;
   double last_contact_t_ = 0.0;
   double flight_start_ = 0.0;
-  /// When the plan's legs are at rest after their lift-off braking (its flight feed-forward
-  /// ends): no touchdown is taken before, since a torque-based contact reads the braking as a
-  /// load while the wheels are still near the ground [s].
+  /// When the plan's legs are at rest after their lift-off braking: no touchdown is taken
+  /// before, since a torque-based contact reads the braking as a load while the wheels are
+  /// still near the ground [s].
   double brake_end_t_ = 0.0;
   double landing_start_ = std::numeric_limits<double>::infinity();
   double placement_td_ = 0.0;  // HFE offset of the leg placement at touchdown [rad]
