@@ -135,18 +135,24 @@ nmpc::InverseDynamicsResult balancedRowInverseDynamics(const model::RobotModel& 
   return out;
 }
 
+/// The plan of a preset at a seed, with the given settings.
+planner::JumpPlan presetPlan(const model::RobotModel& robot, const planner::PlannerSettings& s,
+                             const char* task, std::uint64_t seed) {
+  const planner::JumpPlanner planner(robot, s);
+  const planner::Scenario sc = planner::makePreset(planner, task);
+  planner::PlanOptions opts;
+  opts.seed = seed;
+  opts.threads = 2;
+  return planner.plan(sc.task, sc.initial, opts).plan;
+}
+
 /// The plan of a preset at a seed.
 planner::JumpPlan presetPlan(const model::RobotModel& robot, const char* task, bool stance_momentum,
                              std::uint64_t seed, bool balanced_stance = true) {
   planner::PlannerSettings settings;
   settings.stance_momentum = stance_momentum;
   settings.balanced_stance = balanced_stance;
-  const planner::JumpPlanner planner(robot, settings);
-  const planner::Scenario sc = planner::makePreset(planner, task);
-  planner::PlanOptions opts;
-  opts.seed = seed;
-  opts.threads = 2;
-  return planner.plan(sc.task, sc.initial, opts).plan;
+  return presetPlan(robot, settings, task, seed);
 }
 
 TEST(TakeoffDynamics, StanceTorquesMatchTheInverseDynamics) {
@@ -239,16 +245,6 @@ planner::PlannerSettings serviceSettings(bool drive_limited_tuck) {
   s.flight_feedforward = true;
   s.drive_limited_tuck = drive_limited_tuck;
   return s;
-}
-
-planner::JumpPlan presetPlan(const model::RobotModel& robot, const planner::PlannerSettings& s,
-                             const char* task, std::uint64_t seed) {
-  const planner::JumpPlanner planner(robot, s);
-  const planner::Scenario sc = planner::makePreset(planner, task);
-  planner::PlanOptions opts;
-  opts.seed = seed;
-  opts.threads = 2;
-  return planner.plan(sc.task, sc.initial, opts).plan;
 }
 
 /// The base's nose-up pitch rate at the plan's row k that gives the whole robot the plan's
