@@ -139,6 +139,16 @@ double touchdownTime(const JumpModelConstants& M, const Solved& S) {
   return S.t3_min;
 }
 
+// The constant acceleration of a drive-limited tuck of joint j (0 HFE, 1 KFE) [rad/s^2]:
+// kTuckTorqueShare of the peak torque over the fixed-base leg's inertia about the joint, the
+// hip's with the knee where it came to rest.
+double tuckAcceleration(const JumpModelConstants& M, const Solved& S, int pair, int j) {
+  const JumpModelConstants::LegInertia& li = M.leg_inertia[pair];
+  const double inertia =
+      j == 0 ? li.i_hip + 2.0 * li.m_l1_c * std::cos(S.brake[pair][1].q_stop) : li.i_knee;
+  return kTuckTorqueShare * (j == 0 ? M.env_hfe : M.env_kfe).peak_torque_nm / inertia;
+}
+
 }  // namespace
 
 // Pitch inertia of the whole robot about its CoM, and the angular momentum of the legs'
@@ -335,15 +345,6 @@ PlanarState flightState(const JumpModelConstants& M, const Solved& S, double t) 
   return s;
 }
 
-// kTuckTorqueShare of the peak torque over the fixed-base leg's inertia about the joint: the
-// hip's with the knee where it came to rest.
-double tuckAcceleration(const JumpModelConstants& M, const Solved& S, int pair, int j) {
-  const JumpModelConstants::LegInertia& li = M.leg_inertia[pair];
-  const double inertia =
-      j == 0 ? li.i_hip + 2.0 * li.m_l1_c * std::cos(S.brake[pair][1].q_stop) : li.i_knee;
-  return kTuckTorqueShare * (j == 0 ? M.env_hfe : M.env_kfe).peak_torque_nm / inertia;
-}
-
 // The tuck from rest, done by tuck_end at the earliest. The smoothstep tuck (the default) of the
 // hind pair is slower if its peak speed (1.5 dq / T) would pass kTuckSpeedShare of the no-load
 // speed; the front pair's is not limited (its wheels must clear an obstacle first). The
@@ -391,9 +392,8 @@ Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int 
         q[j] = b.at(tau, &rate);
       } else if (T > 0.0 && tau < b.t_stop + T) {
         const double u = (tau - b.t_stop) / T;
-        const bool constant_acceleration = st.drive_limited_tuck;
-        q[j] = b.q_stop + dq * (constant_acceleration ? bangBang(u) : smoothstep(u));
-        rate = dq * (constant_acceleration ? bangBangRate(u) : smoothstepRate(u)) / T;
+        q[j] = b.q_stop + dq * (st.drive_limited_tuck ? bangBang(u) : smoothstep(u));
+        rate = dq * (st.drive_limited_tuck ? bangBangRate(u) : smoothstepRate(u)) / T;
       } else {
         q[j] = q_tuck[j];  // tucked (or the brake outlasted the tuck: a very short flight)
       }

@@ -255,8 +255,6 @@ Eigen::Vector2d flightPosture(const JumpModelConstants& M, const Solved& S, int 
                               Eigen::Vector2d* qd);
 // How long joint j (0 HFE, 1 KFE) of a pair tucks after its braking ends [s].
 double tuckDuration(const JumpModelConstants& M, const Solved& S, int pair, int j);
-/// The constant acceleration of a drive-limited tuck of joint j (0 HFE, 1 KFE) [rad/s^2].
-double tuckAcceleration(const JumpModelConstants& M, const Solved& S, int pair, int j);
 // The pair's braking from (q, qd) at its lift-off (the leg's inertia, the drives' envelopes).
 std::array<JointBrake, 2> startBrake(const JumpModelConstants& M, int pair,
                                      const Eigen::Vector2d& q, const Eigen::Vector2d& qd,

@@ -324,10 +324,11 @@ struct LegBalance {
       const std::size_t i = static_cast<std::size_t>(n);
       const Eigen::Vector3d force = c.mass[i] * absolute(com[i]);
       f_sum += force;
-      if (n < 3 || ground)
-        m_sum += com[i].r.cross(force) + c.i_yy[i] * pitch_dd[i] * c.e_y;
-      else
-        m_sum += com[i].r.cross(force);
+      // A free wheel (in flight) keeps its spin: its own inertia adds no moment.
+      const bool free_wheel = n == 3 && !ground;
+      const Eigen::Vector3d spin =
+          free_wheel ? Eigen::Vector3d::Zero() : Eigen::Vector3d(c.i_yy[i] * pitch_dd[i] * c.e_y);
+      m_sum += com[i].r.cross(force) + spin;
       if (n == 3 && ground) m_sum += c.i_yy[3] * wheel_acc * c.axis[3];
       // HFE, KFE and the wheel turn about H's y axis: only the moment's y is needed.
       const Eigen::Vector3d& o_n = o[i];

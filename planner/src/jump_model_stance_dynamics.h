@@ -92,8 +92,9 @@ void addStanceTorques(const JumpModelConstants& M, const StanceDynamics& D, cons
 
 /// The flight's feed-forward at time t (after t2): each leg's HAA, HFE and KFE torques that
 /// make its links follow the flight references while the base moves as the plan's flight
-/// (ballistic CoM, the attitude table); the wheels' are zero (they turn freely). The same
-/// Newton-Euler balance as addStanceTorques, without a ground force. Writes every leg's entries.
+/// (ballistic CoM, the attitude table's pitch, the momentum balance's pitch rate); the wheels'
+/// are zero (they turn freely). The same Newton-Euler balance as addStanceTorques, without a
+/// ground force. Writes every leg's entries.
 void flightTorques(const JumpModelConstants& M, const StanceDynamics& D, const Solved& S, double t,
                    Eigen::Matrix<double, model::kNumJoints, 1>& tau);
 

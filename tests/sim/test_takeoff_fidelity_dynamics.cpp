@@ -53,6 +53,22 @@ const planner::ForcePhase* interiorPhaseAt(const planner::JumpPlan& plan, double
   return inside ? ph : nullptr;
 }
 
+/// The base's motion at the plan's row k in its own frame (orientation R): the given nose-up
+/// pitch rate and acceleration, and the origin's velocity and acceleration by central
+/// differences of the rows.
+nmpc::BaseMotion rowBaseMotion(const model::RobotModel& robot, const planner::JumpPlan& plan, int k,
+                               const Eigen::Matrix3d& R, double pitch_rate, double pitch_dd) {
+  const double dt = plan.dt;
+  const Eigen::Vector3d pm = baseOrigin(robot, plan, k - 1), p0 = baseOrigin(robot, plan, k),
+                        pp = baseOrigin(robot, plan, k + 1);
+  nmpc::BaseMotion base;
+  base.omega_B = Eigen::Vector3d(0.0, -pitch_rate, 0.0);
+  base.omegadot_B = Eigen::Vector3d(0.0, -pitch_dd, 0.0);
+  base.v_B = R.transpose() * (pp - pm) / (2 * dt);
+  base.a_B = R.transpose() * (pp - 2 * p0 + pm) / (dt * dt);
+  return base;
+}
+
 /// The inverse dynamics of the plan's row k (inside the contact phase ph, with its neighbours):
 /// the joint torques and the base wrench that the plan's motion needs with its ground forces,
 /// velocities and accelerations by central differences of the rows.
@@ -69,13 +85,7 @@ nmpc::InverseDynamicsResult rowInverseDynamics(const model::RobotModel& robot,
       (plan.centroidal[k + 1].pitch_rate - plan.centroidal[k - 1].pitch_rate) / (2 * dt);
   const Eigen::Matrix3d R =
       Eigen::AngleAxisd(-s.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  const Eigen::Vector3d pm = baseOrigin(robot, plan, k - 1), p0 = baseOrigin(robot, plan, k),
-                        pp = baseOrigin(robot, plan, k + 1);
-  nmpc::BaseMotion base;
-  base.omega_B = Eigen::Vector3d(0.0, -s.pitch_rate, 0.0);
-  base.omegadot_B = Eigen::Vector3d(0.0, -pitch_dd, 0.0);
-  base.v_B = R.transpose() * (pp - pm) / (2 * dt);
-  base.a_B = R.transpose() * (pp - 2 * p0 + pm) / (dt * dt);
+  const nmpc::BaseMotion base = rowBaseMotion(robot, plan, k, R, s.pitch_rate, pitch_dd);
   const auto X = robot.calcLinkPoses(q);
   std::array<nmpc::WheelForce, model::kNumLegs> wheels{};
   const double tau = t - ph.t_start;
@@ -279,13 +289,7 @@ nmpc::InverseDynamicsResult flightRowInverseDynamics(const model::RobotModel& ro
       (flightPitchRate(robot, plan, k + 1) - flightPitchRate(robot, plan, k - 1)) / (2 * dt);
   const Eigen::Matrix3d R =
       Eigen::AngleAxisd(-s.pitch, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  const Eigen::Vector3d pm = baseOrigin(robot, plan, k - 1), p0 = baseOrigin(robot, plan, k),
-                        pp = baseOrigin(robot, plan, k + 1);
-  nmpc::BaseMotion base;
-  base.omega_B = Eigen::Vector3d(0.0, -pitch_rate, 0.0);
-  base.omegadot_B = Eigen::Vector3d(0.0, -pitch_dd, 0.0);
-  base.v_B = R.transpose() * (pp - pm) / (2 * dt);
-  base.a_B = R.transpose() * (pp - 2 * p0 + pm) / (dt * dt);
+  const nmpc::BaseMotion base = rowBaseMotion(robot, plan, k, R, pitch_rate, pitch_dd);
   const std::array<nmpc::WheelForce, model::kNumLegs> no_force{};
   const Eigen::Vector3d gravity_B =
       R.transpose() * Eigen::Vector3d(0.0, 0.0, -planner::PlannerSettings{}.gravity);
