@@ -16,6 +16,8 @@
 # at 1e-5) in place of the verifier's 1 ms semi-explicit Euler step; the difference between
 # the two runs is the simulation's own error on each figure.
 # WJ_FIDELITY_CONTACT_STIFFNESS=<Pa>: Simbody's contact modulus in place of 8e6.
+# WJ_FIDELITY_CONTACT_DISSIPATION=<s/m>: Simbody's contact dissipation (Hunt-Crossley c) in
+# place of 0.8.
 # WJ_FIDELITY_TAKEOFF_GAINS=kp,kd: the take-off's joint gains in place of 150,3.
 # WJ_FIDELITY_MOMENTUM_GAINS=kp,kd: the executor's take-off momentum feedback gains
 # (ExecutorSettings::takeoff_momentum_kp, _kd) in place of 150,0.5.

@@ -425,6 +425,8 @@ std::optional<std::pair<double, double>> gainPair(const char* name) {
 /// reference integrator only: the 1 ms step chatters, docs/sim.md "Integrator").
 /// WJ_FIDELITY_CONTACT_STIFFNESS: the contact's plane-strain modulus [Pa] in place of 8e6 (how
 /// much of the gap is the tyre's compliance, docs/planner.md "The tyre's lag").
+/// WJ_FIDELITY_CONTACT_DISSIPATION: the contact's Hunt-Crossley dissipation [s/m] in place of
+/// 0.8 (how much the unloading tail depends on it, docs/takeoff-fidelity.md "Session 35").
 /// WJ_FIDELITY_TAKEOFF_GAINS="kp,kd": the take-off's joint gains in place of 150, 3 (how much of
 /// the gap is the joints' tracking, docs/takeoff-fidelity.md "Stiffer tracking").
 /// WJ_FIDELITY_MOMENTUM_GAINS="kp,kd": the take-off's momentum feedback gains in place of
@@ -439,6 +441,8 @@ VerifierSettings verifierSettings() {
     s.sim.contact.transition_velocity_m_s = std::stod(vt);
   if (const char* k = std::getenv("WJ_FIDELITY_CONTACT_STIFFNESS"))
     s.sim.contact.stiffness_pa = std::stod(k);
+  if (const char* c = std::getenv("WJ_FIDELITY_CONTACT_DISSIPATION"))
+    s.sim.contact.dissipation_s_m = std::stod(c);
   const char* v = std::getenv("WJ_FIDELITY_SPEED_LOOP");
   if (v && std::string(v) == "1") {
     s.executor.takeoff_wheel_slip_band_m_s = 0.0;
