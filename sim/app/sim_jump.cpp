@@ -464,6 +464,7 @@ int main(int argc, char** argv) {
                           {"residual_ratio", round.residual_ratio},
                           {"feasible", round.feasible},
                           {"passed", round.passed},
+                          {"reasons", round.reasons},
                           {"solve_ms", round.solve_ms},
                           {"verify_ms", round.verify_ms}});
       j["liftoff_correction"] = {{"rounds", rounds}, {"chosen", corrected.chosen}};
